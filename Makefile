@@ -1,0 +1,30 @@
+# The two commands a newcomer needs:
+#   make book   set up .venv, execute every chapter, render the site to _build/html
+#   make test   set up .venv, run the unit tests and every chapter in the smoke profile
+PYTHON ?= python3
+VENV   ?= .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed-$(shell sha1sum pyproject.toml | cut -c1-12)
+PROFILE ?= laptop
+
+.PHONY: book test lint clean setup
+
+setup: $(STAMP)
+
+$(STAMP): pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install -e '.[dev]'
+	rm -f $(VENV)/.installed-*; touch $@
+
+book: $(STAMP)
+	rm -rf _build/html _build/.doctrees _build/jupyter_execute
+	MOTIONLAB_PROFILE=$(PROFILE) $(BIN)/jupyter-book build . --toc book/_toc.yml -W -n --keep-going
+
+test: $(STAMP)
+	MOTIONLAB_PROFILE=smoke $(BIN)/python -m pytest
+
+lint: $(STAMP)
+	$(BIN)/ruff check src tests benchmarks
+
+clean:
+	rm -rf _build

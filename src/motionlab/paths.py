@@ -1,0 +1,24 @@
+"""Where motionlab keeps what it generates: the embedded dataset and trained models.
+
+Everything lives under one cache root: ``$MOTIONLAB_HOME`` if set, else ``~/.cache/motionlab``.
+Nothing is ever downloaded; the cache only holds what this machine produced.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+
+def cache_dir() -> Path:
+    """The cache root (created on demand)."""
+    root = Path(os.environ.get("MOTIONLAB_HOME", Path.home() / ".cache" / "motionlab")).expanduser()
+    root.mkdir(parents=True, exist_ok=True)
+    return root
+
+
+def cache_path(*parts: str) -> Path:
+    """A path inside the cache root; parent folders are created, the path itself is not."""
+    path = cache_dir().joinpath(*parts)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return path
