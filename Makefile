@@ -21,7 +21,7 @@ book: $(STAMP)
 	MOTIONLAB_PROFILE=$(PROFILE) $(BIN)/jupyter-book build . --toc book/_toc.yml -W -n --keep-going
 
 test: $(STAMP)
-	MOTIONLAB_PROFILE=smoke $(BIN)/python -m pytest
+	MOTIONLAB_PROFILE=smoke $(BIN)/python -m pytest --nbval-lax --nbval-current-env
 
 lint: $(STAMP)
 	$(BIN)/ruff check src tests benchmarks
