@@ -22,3 +22,20 @@ def cache_path(*parts: str) -> Path:
     path = cache_dir().joinpath(*parts)
     path.parent.mkdir(parents=True, exist_ok=True)
     return path
+
+
+def shared_data_dir() -> Path | None:
+    """The optional folder of real demo clips (``../shared/data`` beside a checkout), or None.
+
+    ``$MOTIONLAB_SHARED_DATA`` wins; otherwise the current folder and its parents are searched for
+    ``shared/data``. These clips are never copied into the project; chapters use them only when present.
+    """
+    env = os.environ.get("MOTIONLAB_SHARED_DATA")
+    if env:
+        return Path(env) if Path(env).is_dir() else None
+    here = Path.cwd().resolve()
+    for folder in (here, *here.parents):
+        candidate = folder / "shared" / "data"
+        if candidate.is_dir():
+            return candidate
+    return None

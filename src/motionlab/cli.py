@@ -1,0 +1,74 @@
+"""The ``motionlab`` command line. Thin: it parses arguments, then calls the library.
+
+Only subcommands whose component exists are listed; more arrive with their components.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+
+def _data_check(args: argparse.Namespace) -> int:
+    from .data import check_dataset
+
+    problems = check_dataset(args.path)
+    if problems:
+        print(f"{args.path}: {len(problems)} problem(s)", file=sys.stderr)
+        for line in problems:
+            print(f"  - {line}", file=sys.stderr)
+        return 1
+    print(f"{args.path}: looks like a complete HumanML3D-layout dataset")
+    return 0
+
+
+def _data_make_embedded(args: argparse.Namespace) -> int:
+    from .data.embedded import EMBEDDED_SIZES, ensure_embedded, write_embedded_dataset
+    from .profiles import get_profile
+
+    if args.out is None:
+        path = ensure_embedded(profile=args.profile, seed=args.seed)
+    else:
+        out = Path(args.out)
+        if out.exists():
+            print(f"error: {out} already exists; choose a new folder", file=sys.stderr)
+            return 2
+        n = args.clips or EMBEDDED_SIZES[get_profile(args.profile)]
+        path = write_embedded_dataset(out, n_clips=n, seed=args.seed)
+    print(path)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="motionlab", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    data = sub.add_parser("data", help="datasets: generate the embedded one, check a folder")
+    data_sub = data.add_subparsers(dest="data_command", required=True)
+
+    check = data_sub.add_parser("check", help="validate a HumanML3D/KIT-ML folder and list what is missing")
+    check.add_argument("path", type=Path)
+    check.set_defaults(func=_data_check)
+
+    make = data_sub.add_parser("make-embedded", help="generate the embedded procedural dataset")
+    make.add_argument("--profile", choices=["smoke", "laptop", "full"], default=None,
+                      help="dataset size (default: $MOTIONLAB_PROFILE or laptop)")  # fmt: skip
+    make.add_argument("--seed", type=int, default=0)
+    make.add_argument("--out", type=Path, default=None, help="write here instead of the cache (must not exist)")
+    make.add_argument("--clips", type=int, default=None, help="number of clips (with --out)")
+    make.set_defaults(func=_data_make_embedded)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except (ValueError, FileNotFoundError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

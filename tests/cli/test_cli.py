@@ -1,0 +1,34 @@
+import subprocess
+import sys
+
+import numpy as np
+
+from motionlab.cli import main
+from motionlab.representation import Normalizer
+
+
+def test_data_check_reports_missing_pieces(tmp_path, capsys):
+    (tmp_path / "new_joint_vecs").mkdir()
+    assert main(["data", "check", str(tmp_path)]) == 1
+    err = capsys.readouterr().err
+    assert "missing texts" in err and "missing Mean.npy" in err and "missing split file train.txt" in err
+
+
+def test_data_check_accepts_a_complete_folder(tmp_path, capsys):
+    for sub in ("new_joint_vecs", "texts"):
+        (tmp_path / sub).mkdir()
+    feats = np.zeros((50, 263), dtype=np.float32)
+    for split, clip_id in (("train", "a"), ("val", "b"), ("test", "c")):
+        np.save(tmp_path / "new_joint_vecs" / f"{clip_id}.npy", feats)
+        (tmp_path / "texts" / f"{clip_id}.txt").write_text("a person stands#a/DET person/NOUN stand/VERB#0.0#0.0\n")
+        (tmp_path / f"{split}.txt").write_text(clip_id + "\n")
+    Normalizer(np.zeros(263), np.ones(263)).save(tmp_path)
+    assert main(["data", "check", str(tmp_path)]) == 0
+    assert "complete" in capsys.readouterr().out
+
+
+def test_module_entry_point_and_help():
+    out = subprocess.run([sys.executable, "-m", "motionlab", "--help"], capture_output=True, text=True)
+    assert out.returncode == 0 and "data" in out.stdout
+    bad = subprocess.run([sys.executable, "-m", "motionlab", "data", "check"], capture_output=True, text=True)
+    assert bad.returncode == 2 and "path" in bad.stderr
