@@ -7,24 +7,13 @@ from collections.abc import Mapping
 import matplotlib.pyplot as plt
 import numpy as np
 
+from ..metrics.jerk import finite_difference_jerk
 from ..representation import Skeleton, feature_slices, get_skeleton
 
 GROUP_COLORS = {
     "root_rot_vel": "#8c564b", "root_lin_vel": "#e377c2", "root_height": "#7f7f7f", "ric": "#1f77b4",
     "rot": "#2ca02c", "local_vel": "#ff7f0e", "foot_contact": "#d62728",
 }  # fmt: skip
-
-
-def third_difference_jerk(positions: np.ndarray, fps: float) -> np.ndarray:
-    """Jerk magnitude ``(T-3, ...)`` of positions ``(T, ..., 3)``: ``||Δ³p|| · fps³``.
-
-    This is the discretisation of the sJPE metric (plain third difference), so plots and metrics agree.
-    """
-    positions = np.asarray(positions, dtype=np.float64)
-    if positions.shape[0] < 4:
-        raise ValueError(f"jerk needs at least 4 frames, got {positions.shape[0]}")
-    d3 = positions[3:] - 3 * positions[2:-1] + 3 * positions[1:-2] - positions[:-3]
-    return np.linalg.norm(d3, axis=-1) * fps**3
 
 
 def plot_feature_layout(skeleton: str | Skeleton = "t2m", ax=None):
@@ -73,7 +62,8 @@ def plot_trajectories(
         joints = np.asarray(joints, dtype=np.float64) * sk.meters_per_unit
         t = np.arange(len(joints)) / rate
         axes[0].plot(t, joints[:, joint, axis], label=label, lw=1.3)
-        axes[1].plot(t[3:], third_difference_jerk(joints[:, joint], rate), label=label, lw=1.0)
+        jerk = np.linalg.norm(finite_difference_jerk(joints[:, joint], rate, axis=0), axis=-1)  # (T-3,)
+        axes[1].plot(t[3:], jerk, label=label, lw=1.0)
     axes[0].set_ylabel(f"{'xyz'[axis]} (m)")
     axes[1].set_ylabel("jerk (m/s³)")
     axes[1].set_xlabel("time (s)")

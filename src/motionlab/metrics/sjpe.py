@@ -1,0 +1,235 @@
+"""sJPE, DisCoRD's symmetric Jerk Percentage Error, exactly as its public evaluation computes it.
+
+For one clip, select a few end-effector joints, take the jerk of each (plain third difference times
+fps^3, see :mod:`motionlab.metrics.jerk`) and its L2 norm over xyz, ``J[t, j]`` with ``t = 0 .. T-4``.
+Then, per element (``variant="element"``, the one with the epsilon, likely the paper's)::
+
+    noise  = sum_{t,j} max(0, Jp - Jg) / (|Jp| + |Jg| + 1e-6) / (T - 3)
+    static = sum_{t,j} max(0, Jg - Jp) / (|Jp| + |Jg| + 1e-6) / (T - 3)
+    sJPE   = noise + static
+
+The sum runs over time *and joints* but is divided only by the number of jerk frames ``T - 3``: a clip
+scores between 0 and the number of selected joints (4 for t2m, 2 for KIT), not between 0 and 1.
+"Noise" is jerk the prediction has and the ground truth lacks (frame-wise jitter); "Static" is jerk the
+prediction misses (under-reconstructed, too-smooth motion). Both elements of a pair that are zero add 0.
+
+``variant="ratio"`` is the evaluation's second print-out, a ratio of sums without epsilon::
+
+    noise = sum max(0, Jp - Jg) / sum (Jp + Jg),   static likewise,  in [0, 1]; NaN if both sums are 0.
+
+Settings per skeleton: t2m uses joints 10, 11 (feet) and 20, 21 (wrists) at 20 fps in metres; KIT uses
+joints 7 and 10 (the wrist ends of the arms) at 12.5 fps, with positions given in millimetres and divided
+by 1000. The dataset score is the mean of the per-clip scores.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from ..representation import get_skeleton, recover_from_ric
+from ._checks import as_float_array, check_joints
+from .jerk import finite_difference_jerk
+
+SJPE_JOINTS = {"t2m": (10, 11, 20, 21), "kit": (7, 10)}
+VARIANTS = ("element", "ratio")
+EPS = 1e-6
+
+
+@dataclass(frozen=True)
+class SJPESetting:
+    """Which joints, at which frame rate, scaled to metres by which factor."""
+
+    joints: tuple[int, ...]
+    fps: float
+    to_metres: float
+    n_joints: int  # joints of the full skeleton the input must have
+
+
+def sjpe_setting(skeleton: str = "t2m") -> SJPESetting:
+    if skeleton not in SJPE_JOINTS:
+        raise ValueError(f"skeleton must be one of {tuple(SJPE_JOINTS)}, got {skeleton!r}")
+    sk = get_skeleton(skeleton)
+    return SJPESetting(SJPE_JOINTS[skeleton], float(sk.fps), sk.meters_per_unit, sk.n_joints)
+
+
+@dataclass
+class SJPEResult:
+    """Per-clip sJPE values ``(N,)`` and their dataset means."""
+
+    noise_per_clip: np.ndarray
+    static_per_clip: np.ndarray
+    jerk_pred_per_clip: np.ndarray  # mean jerk magnitude (m/s^3) over time and selected joints
+    jerk_gt_per_clip: np.ndarray
+
+    @property
+    def sjpe_per_clip(self) -> np.ndarray:
+        return self.noise_per_clip + self.static_per_clip
+
+    @property
+    def noise(self) -> float:
+        return float(np.mean(self.noise_per_clip))
+
+    @property
+    def static(self) -> float:
+        return float(np.mean(self.static_per_clip))
+
+    @property
+    def sjpe(self) -> float:
+        return float(np.mean(self.sjpe_per_clip))
+
+    def as_dict(self) -> dict[str, float]:
+        """Dataset means (NaN clips of the ratio variant propagate, as in the reference's sum)."""
+        return {"sjpe": self.sjpe, "noise": self.noise, "static": self.static}
+
+
+def _jerk_magnitudes(clips: Sequence[np.ndarray], fps: float) -> tuple[np.ndarray, np.ndarray]:
+    """``|jerk|`` of all clips stacked ``(sum_i (T_i - 3), n_sel)`` and each row's clip id.
+
+    ``clips`` hold only the selected joints, in metres. They are concatenated and differenced once; rows
+    whose 4-frame stencil crosses from one clip into the next are dropped, so nothing of a neighbour (or
+    of padding) leaks into a clip's score.
+    """
+    lengths = np.array([c.shape[0] for c in clips])
+    jerk = np.linalg.norm(finite_difference_jerk(np.concatenate(clips), fps, axis=0), axis=-1)  # (sum T - 3, n)
+    starts = np.concatenate(([0], np.cumsum(lengths)[:-1]))
+    n_rows = lengths - 3
+    clip_id = np.repeat(np.arange(len(clips)), n_rows)
+    offset_in_clip = np.arange(n_rows.sum()) - np.repeat(np.cumsum(n_rows) - n_rows, n_rows)
+    rows = np.repeat(starts, n_rows) + offset_in_clip
+    return jerk[rows], clip_id
+
+
+def _score(jp: np.ndarray, jg: np.ndarray, clip_id: np.ndarray, n_clips: int, variant: str):
+    """Per-clip (noise, static) from jerk magnitudes ``(R, n)`` (non-negative) grouped by ``clip_id``."""
+    over = np.maximum(jp - jg, 0.0)  # (R, n): jerk the prediction adds
+    under = np.maximum(jg - jp, 0.0)  # (R, n): jerk the prediction misses
+
+    def per_clip(values: np.ndarray) -> np.ndarray:  # (R, n) -> (n_clips,), summed over joints and time
+        return np.bincount(clip_id, weights=values.sum(axis=1), minlength=n_clips)
+
+    if variant == "element":
+        denom = jp + jg + EPS
+        n_frames = np.bincount(clip_id, minlength=n_clips)  # T_i - 3
+        return per_clip(over / denom) / n_frames, per_clip(under / denom) / n_frames
+    total = per_clip(jp + jg)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return per_clip(over) / total, per_clip(under) / total
+
+
+def _numpy(x) -> np.ndarray:
+    return x.detach().cpu().numpy() if isinstance(x, torch.Tensor) else np.asarray(x)
+
+
+def _selected_clips(clips, lengths, name: str, setting: SJPESetting) -> list[np.ndarray]:
+    """Clips (a list, or a padded ``(N, T, J, 3)`` array cropped to ``lengths``), validated and reduced
+    to the selected joints in metres, float64. Padding is never read, not even to check it is finite."""
+    if isinstance(clips, (np.ndarray, torch.Tensor)) and clips.ndim == 4:
+        padded = _numpy(clips)
+        lengths = [padded.shape[1]] * padded.shape[0] if lengths is None else [int(n) for n in lengths]
+        if len(lengths) != padded.shape[0]:
+            raise ValueError(f"lengths has {len(lengths)} entries but {name} holds {padded.shape[0]} clips")
+        if any(n > padded.shape[1] for n in lengths):
+            raise ValueError(f"a length exceeds the padded time axis ({padded.shape[1]}) of {name}")
+        clips = [padded[i, :n] for i, n in enumerate(lengths)]
+    elif lengths is not None:
+        raise ValueError(f"lengths is only used with a padded (N, T, J, 3) array for {name}")
+    if len(clips) == 0:
+        raise ValueError(f"{name} is empty")
+    out = []
+    for i, clip in enumerate(clips):
+        a = _numpy(clip)
+        if a.ndim != 3 or a.shape[1:] != (setting.n_joints, 3):
+            raise ValueError(f"{name}[{i}] must have shape (T, {setting.n_joints}, 3), got {a.shape}")
+        if a.shape[0] < 4:
+            raise ValueError(f"{name}[{i}] needs at least 4 frames (a third difference), got {a.shape[0]}")
+        if not np.isfinite(a).all():
+            raise ValueError(f"{name}[{i}] contains NaN or inf values")
+        out.append(a[:, setting.joints].astype(np.float64) * setting.to_metres)  # (T, n_sel, 3)
+    return out
+
+
+def sjpe_dataset(
+    pred_clips, gt_clips, skeleton: str = "t2m", variant: str = "element", lengths: Sequence[int] | None = None
+) -> SJPEResult:
+    """sJPE over many clips of possibly different lengths.
+
+    ``pred_clips``/``gt_clips``: lists of ``(T_i, J, 3)`` joint positions (all joints of the skeleton;
+    metres for t2m, millimetres for KIT), or padded ``(N, T, J, 3)`` arrays with ``lengths`` -- frames
+    past ``lengths[i]`` are never read. Pair ``i`` must have equal lengths.
+    """
+    if variant not in VARIANTS:
+        raise ValueError(f"variant must be one of {VARIANTS}, got {variant!r}")
+    setting = sjpe_setting(skeleton)
+    pred = _selected_clips(pred_clips, lengths, "pred_clips", setting)
+    gt = _selected_clips(gt_clips, lengths, "gt_clips", setting)
+    if len(pred) != len(gt):
+        raise ValueError(f"pred_clips has {len(pred)} clips but gt_clips has {len(gt)}")
+    for i, (p, g) in enumerate(zip(pred, gt)):
+        if p.shape != g.shape:
+            raise ValueError(f"clip {i}: prediction has {len(p)} frames but ground truth has {len(g)}")
+    jp, clip_id = _jerk_magnitudes(pred, setting.fps)
+    jg, _ = _jerk_magnitudes(gt, setting.fps)
+    noise, static = _score(jp, jg, clip_id, len(pred), variant)
+    n_cells = np.bincount(clip_id, minlength=len(pred)) * len(setting.joints)
+    mean_p = np.bincount(clip_id, weights=jp.sum(axis=1), minlength=len(pred)) / n_cells
+    mean_g = np.bincount(clip_id, weights=jg.sum(axis=1), minlength=len(pred)) / n_cells
+    return SJPEResult(noise, static, mean_p, mean_g)
+
+
+def sjpe(pred_joints, gt_joints, skeleton: str = "t2m", variant: str = "element") -> dict[str, float]:
+    """sJPE of ONE clip: ``{"sjpe", "noise", "static"}`` with ``sjpe = noise + static``.
+
+    ``pred_joints``/``gt_joints``: ``(T, 22, 3)`` metres for ``"t2m"`` or ``(T, 21, 3)`` millimetres for
+    ``"kit"``, all joints; the function selects the joints and the frame rate itself. ``T >= 4``.
+    For ``variant="element"`` the value lies in ``[0, n_selected_joints]``.
+    """
+    setting = sjpe_setting(skeleton)
+    pred = check_joints(pred_joints, "pred_joints", setting.n_joints)
+    gt = check_joints(gt_joints, "gt_joints", setting.n_joints)
+    if pred.shape != gt.shape:
+        raise ValueError(f"pred_joints {pred.shape} and gt_joints {gt.shape} must have the same shape")
+    return sjpe_dataset([pred], [gt], skeleton, variant).as_dict()
+
+
+def sjpe_from_features(
+    pred_feats,
+    gt_feats,
+    lengths: Sequence[int] | None = None,
+    skeleton: str = "t2m",
+    variant: str = "element",
+) -> SJPEResult:
+    """sJPE from raw (de-normalised) HumanML3D features, as DisCoRD's evaluation does it.
+
+    ``pred_feats``/``gt_feats``: ``(T, D)`` or ``(N, T, D)`` with ``D = 263`` (t2m) or ``251`` (KIT), or
+    lists of ``(T_i, D)``. Each clip is cropped to its length, then ``recover_from_ric`` gives joints.
+    Recovery integrates the root forward in time, so frame ``t`` depends only on rows ``<= t``: recovering
+    a padded batch and cropping afterwards is identical to recovering each crop.
+    """
+    setting = sjpe_setting(skeleton)
+    joints = []
+    for name, feats in (("pred_feats", pred_feats), ("gt_feats", gt_feats)):
+        if isinstance(feats, (list, tuple)):
+            if lengths is not None:
+                raise ValueError("lengths is only used with array inputs; crop list items yourself")
+            arrs = [as_float_array(f, f"{name}[{i}]") for i, f in enumerate(feats)]
+            joints.append([np.asarray(recover_from_ric(a, setting.n_joints)) for a in arrs])
+            continue
+        arr = _numpy(feats).astype(np.float64)  # a copy: the padding is overwritten below
+        if arr.ndim == 2:
+            arr = arr[None]
+        if arr.ndim != 3:
+            raise ValueError(f"{name} must have shape (T, D) or (N, T, D), got {arr.shape}")
+        n = [arr.shape[1]] * arr.shape[0] if lengths is None else [int(m) for m in lengths]
+        if len(n) != arr.shape[0] or any(m > arr.shape[1] for m in n):
+            raise ValueError(f"lengths {n} do not fit {name} of shape {arr.shape}")
+        for i, m in enumerate(n):
+            if not np.isfinite(arr[i, :m]).all():
+                raise ValueError(f"{name}[{i}] contains NaN or inf values")
+            arr[i, m:] = 0.0  # padding is never used; zero it so recovery can run on the whole batch
+        rec = np.asarray(recover_from_ric(arr, setting.n_joints))  # (N, T, J, 3)
+        joints.append([rec[i, :m] for i, m in enumerate(n)])
+    return sjpe_dataset(joints[0], joints[1], skeleton, variant)
