@@ -17,6 +17,7 @@ $(STAMP): pyproject.toml
 	rm -f $(VENV)/.installed-*; touch $@
 
 book: $(STAMP)
+	$(BIN)/python tools/vendor_web_assets.py   # MathJax + widget JS for an offline site (npm ci, once)
 	rm -rf _build/html _build/.doctrees _build/jupyter_execute
 	MOTIONLAB_PROFILE=$(PROFILE) $(BIN)/jupyter-book build . --toc book/_toc.yml -W -n --keep-going
 
@@ -24,7 +25,7 @@ test: $(STAMP)
 	MOTIONLAB_PROFILE=smoke $(BIN)/python -m pytest --nbval-lax --nbval-current-env
 
 lint: $(STAMP)
-	$(BIN)/ruff check src tests benchmarks
+	$(BIN)/ruff check src tests benchmarks tools
 
 clean:
 	rm -rf _build

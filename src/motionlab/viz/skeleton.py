@@ -87,7 +87,7 @@ def animate_motions(
 
     Long clips are subsampled in time to at most ``max_frames`` frames (the playback speed stays real time).
     ``trail_joint`` draws the path of one joint (e.g. 20, the left wrist) up to the current frame. Show it in a
-    notebook with ``IPython.display.HTML(anim.to_jshtml())`` or :func:`motionlab.viz.show_animation`.
+    notebook or book page with :func:`motionlab.book.embed_animation` (plays offline).
     """
     if isinstance(motions, np.ndarray) or hasattr(motions, "detach"):
         motions = [motions]
@@ -123,10 +123,3 @@ def animate_motions(
     anim = animation.FuncAnimation(fig, update, frames=frames, interval=1000.0 * stride / rate, blit=False)
     plt.close(fig)  # the animation owns the figure; avoid a duplicate still image in notebooks
     return anim
-
-
-def show_animation(anim: animation.FuncAnimation):
-    """Embed an animation in a notebook/book page as self-contained HTML (plays offline)."""
-    from IPython.display import HTML
-
-    return HTML(anim.to_jshtml(default_mode="loop"))

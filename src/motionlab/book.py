@@ -1,0 +1,145 @@
+"""Helpers every chapter of the book uses: one ``setup()`` call, "show me the code", animations.
+
+A chapter notebook starts with two cells::
+
+    # cell tags: ["parameters"]  -- papermill overrides these; nbval/jupyter-book read the env
+    import os
+    profile = os.environ.get("MOTIONLAB_PROFILE", "laptop")   # smoke | laptop | full
+    seed = 0
+
+    from motionlab import book
+    profile = book.setup(seed=seed, profile=profile)            # validated profile name
+
+The library is the single source of truth. To *teach* a function, show its source instead of
+retyping it, so the text can never drift from the code that runs::
+
+    book.show_source(motionlab.flow.euler_sample)
+
+Animations are embedded in the page as a JavaScript player (``book.embed_animation(anim)``); they play
+in the rendered site opened from disk, with no network.
+
+Exercises
+---------
+Exercises are markdown cells in the notebook (never code cells, so that nbval and the book build have
+nothing to execute). Use MyST admonitions: the task is visible, the hint and the answer are folded
+``{dropdown}`` blocks that the reader opens on purpose. Number exercises per chapter (``Exercise 3.2``).
+The markdown source of one exercise::
+
+    ```{admonition} Exercise 3.2 — fewer Euler steps
+    :class: tip
+    Decode the same tokens with 1, 2, 4 and 16 Euler steps and plot sJPE against the number of steps.
+    Where does the curve flatten, and why does a straight flow need so few steps?
+    ```
+
+    ```{dropdown} Hint
+    `motionlab.flow` samplers take `steps=`; keep the noise generator seed fixed across runs.
+    ```
+
+    ```{dropdown} Answer
+    For an exactly straight flow, one Euler step is exact; the learned flow is only nearly straight ...
+    ```
+
+The answer dropdown may contain a code block (a fenced ```` ```python ```` block inside the dropdown),
+which is shown but never executed. Both directives come with Jupyter Book 1 (sphinx-design,
+sphinx-togglebutton) and need no network; keep the text plain MyST so a later move to Jupyter Book 2
+stays easy.
+"""
+
+from __future__ import annotations
+
+import inspect
+import os
+import random
+import re
+import textwrap
+
+import numpy as np
+
+from motionlab.profiles import get_profile
+
+# Small, crisp figures: a book page is ~700 px wide and the site must stay light.
+RC_PARAMS = {
+    "figure.figsize": (6.0, 3.2),
+    "figure.dpi": 90,
+    "savefig.dpi": 90,
+    "font.size": 9,
+    "axes.grid": True,
+    "grid.alpha": 0.3,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+    # to_jshtml embeds every frame as base64 PNG; past this many MB matplotlib silently drops frames.
+    "animation.embed_limit": 40.0,
+    "animation.html": "jshtml",
+}
+
+# matplotlib's jshtml player links Font Awesome 4 from a CDN for its button icons. The book theme
+# already ships Font Awesome (which also understands the v4 class names), so the link is dropped to
+# keep pages free of network requests.
+_CDN_LINK = re.compile(r"<link[^>]*href=[\"']https?://[^\"']*font-awesome[^\"']*[\"'][^>]*>\s*", re.IGNORECASE)
+
+
+def setup(seed: int = 0, profile: str | None = None, threads: int | None = None) -> str:
+    """Seed every RNG, set plotting defaults and torch threads; return the validated profile.
+
+    ``profile`` falls back to ``$MOTIONLAB_PROFILE`` and then ``"laptop"``
+    (see :mod:`motionlab.profiles`). ``threads`` defaults to the number of CPUs, capped at 4 because
+    the tiny models of the book gain nothing from more and shared CI machines have 2 cores.
+    Library code never relies on these global seeds: it takes explicit generators. The seeds only
+    make ad-hoc cells in a chapter (``torch.randn`` in a demo) repeatable.
+    """
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be a non-negative int, got {seed!r}")
+    if threads is not None and (not isinstance(threads, int) or threads < 1):
+        raise ValueError(f"threads must be a positive int or None, got {threads!r}")
+    profile = get_profile(profile)
+
+    random.seed(int(seed))
+    np.random.seed(int(seed) % 2**32)  # noqa: NPY002 -- the global RNG that ad-hoc cells use
+    import torch  # local: importing motionlab.book should not pay for torch when unused
+
+    torch.manual_seed(int(seed))
+    n_threads = threads if threads is not None else max(1, min(4, os.cpu_count() or 1))
+    torch.set_num_threads(n_threads)
+
+    import matplotlib as mpl
+
+    mpl.rcParams.update(RC_PARAMS)
+    return profile
+
+
+def show_source(obj: object):
+    """Display the library source of a function, class or module, syntax-highlighted.
+
+    Returns an ``IPython.display.Code`` object: as the last expression of a cell it renders in
+    Jupyter and in the book. This is the "show me the code" pattern: the chapter explains, the
+    library implements, and the page shows exactly the code that ran.
+    """
+    if not (inspect.isfunction(obj) or inspect.isclass(obj) or inspect.ismethod(obj) or inspect.ismodule(obj)):
+        raise ValueError(f"obj must be a function, method, class or module, got {type(obj).__name__}")
+    from IPython.display import Code
+
+    try:
+        source = inspect.getsource(obj)
+    except (OSError, TypeError) as err:  # built-ins and objects defined in a notebook have no file
+        raise ValueError(f"no source available for {obj!r}: {err}") from err
+    return Code(textwrap.dedent(source), language="python")  # methods come indented
+
+
+def embed_animation(anim, close: bool = True, default_mode: str = "loop"):
+    """An ``IPython.display.HTML`` with ``anim`` as a self-contained JavaScript player.
+
+    Frames are embedded as base64 PNGs (mind ``animation.embed_limit``). The player's CDN icon font
+    link is removed (the book theme provides the icons), so the page works offline. ``close`` closes
+    the animation's figure so that the notebook does not also show a duplicate still image.
+    ``default_mode`` is the player's end behaviour: ``"loop"``, ``"once"`` or ``"reflect"``.
+    """
+    if not hasattr(anim, "to_jshtml"):
+        raise ValueError(f"anim must be a matplotlib.animation.Animation, got {type(anim).__name__}")
+    from IPython.display import HTML
+
+    html = _CDN_LINK.sub("", anim.to_jshtml(default_mode=default_mode))
+    if close:
+        import matplotlib.pyplot as plt
+
+        plt.close(anim._fig)
+    return HTML(html)

@@ -1,0 +1,176 @@
+"""motionlab.results: recording numbers atomically, and judging the papers' claims with them."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import numpy as np
+import pytest
+
+from motionlab import results
+from motionlab.results import (
+    CLAIMS,
+    FAILS,
+    HOLDS,
+    INCONCLUSIVE,
+    MISSING,
+    Between,
+    Claim,
+    Greater,
+    Increasing,
+    Less,
+    Result,
+    Within,
+)
+
+
+@pytest.fixture
+def results_root(tmp_path, monkeypatch):
+    root = tmp_path / "results"
+    monkeypatch.setenv(results.RESULTS_ENV, str(root))
+    monkeypatch.delenv("MOTIONLAB_PROFILE", raising=False)
+    return root
+
+
+def r(value, ci=None, key="k"):
+    return Result("c", key, float(value), ci)
+
+
+# ---------------------------------------------------------------------------------------------- recording
+
+
+def test_record_round_trip_and_file_layout(results_root):
+    out = results.record("discord", "sjpe_rf", np.float32(0.25), ci=0.05, unit="", note="16 steps", profile="smoke")
+    assert out.name == "discord/sjpe_rf" and out.ci == pytest.approx((0.2, 0.3))
+    results.record("discord", "sjpe_ff", 0.5, ci=(0.4, 0.55), profile="smoke")
+    results.record("tps", "jerk_tps", 1, profile="smoke")
+
+    path = results_root / "smoke" / "discord.json"
+    payload = json.loads(path.read_text())
+    assert payload["chapter"] == "discord" and payload["profile"] == "smoke"
+    assert set(payload["results"]) == {"sjpe_rf", "sjpe_ff"}
+    assert not list((results_root / "smoke").glob("*.tmp")), "atomic write left a temporary file"
+
+    loaded = results.load_all("smoke")
+    assert set(loaded) == {"discord/sjpe_rf", "discord/sjpe_ff", "tps/jerk_tps"}
+    assert loaded["discord/sjpe_rf"].value == pytest.approx(0.25)
+    assert loaded["discord/sjpe_rf"].note == "16 steps"
+    assert loaded["discord/sjpe_ff"].ci == (0.4, 0.55)
+    assert loaded["tps/jerk_tps"].ci is None
+    assert results.load_all("laptop") == {}, "profiles must not see each other's numbers"
+
+
+def test_record_again_replaces_and_profile_defaults_to_env(results_root, monkeypatch):
+    monkeypatch.setenv("MOTIONLAB_PROFILE", "full")
+    results.record("vq", "usage", 0.5)
+    results.record("vq", "usage", 0.75)
+    loaded = results.load_all("full")
+    assert loaded["vq/usage"].value == 0.75 and len(loaded) == 1
+
+
+def test_default_folder_is_inside_the_cache(isolated_cache, monkeypatch):
+    monkeypatch.delenv(results.RESULTS_ENV, raising=False)
+    results.record("flow", "loss", 0.1, profile="smoke")
+    assert (isolated_cache / "results" / "smoke" / "flow.json").is_file()
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"chapter": "Bad Name"}, "chapter"),
+        ({"chapter": "a/b"}, "chapter"),
+        ({"key": ""}, "key"),
+        ({"value": float("nan")}, "finite"),
+        ({"value": "0.3"}, "real number"),
+        ({"value": True}, "real number"),
+        ({"value": np.ones(3)}, "real number"),
+        ({"ci": -1.0}, ">= 0"),
+        ({"ci": (0.5, 0.6)}, "contain"),
+        ({"ci": (0.1, 0.2, 0.3)}, "pair"),
+        ({"unit": 3}, "unit"),
+        ({"profile": "huge"}, "profile"),
+    ],
+)
+def test_record_validates(results_root, kwargs, match):
+    args = {"chapter": "discord", "key": "sjpe_rf", "value": 0.3} | kwargs
+    with pytest.raises(ValueError, match=match):
+        results.record(**args)
+
+
+# ---------------------------------------------------------------------------------------------- rules
+
+
+def test_rules_on_points():
+    rec = {"a": r(1.0), "b": r(2.0), "c": r(3.0)}
+    assert Less("a", "b").judge(rec) == HOLDS and Less("b", "a").judge(rec) == FAILS
+    assert Greater("c", "a").judge(rec) == HOLDS and Greater("a", "c").judge(rec) == FAILS
+    assert Between("b", "a", "c").judge(rec) == HOLDS and Between("a", "b", "c").judge(rec) == FAILS
+    assert Increasing(("a", "b", "c")).judge(rec) == HOLDS
+    assert Increasing(("a", "c", "b")).judge(rec) == FAILS
+    assert Within("b", "c", 0.34).judge(rec) == HOLDS and Within("b", "c", 0.3).judge(rec) == FAILS
+
+
+def test_overlapping_intervals_are_inconclusive_but_a_clear_failure_is_not():
+    rec = {"a": r(1.0, (0.8, 1.2)), "b": r(1.1, (0.9, 1.3)), "far": r(5.0, (4.9, 5.1)), "pt": r(1.1)}
+    assert Less("a", "b").judge(rec) == INCONCLUSIVE
+    assert Less("a", "pt").judge(rec) == INCONCLUSIVE  # the point lies inside a's interval
+    assert Less("a", "far").judge(rec) == HOLDS
+    assert Greater("a", "far").judge(rec) == FAILS
+    assert Between("b", "a", "far").judge(rec) == INCONCLUSIVE  # low side overlaps, high side is clear
+
+
+def test_missing_keys_give_a_row_not_a_gap():
+    claim = Claim("P", "Table 1", "x is small", "1 vs 2", Less("c/x", "c/y"))
+    row = results.judge(claim, {"c/x": r(1.0, key="x")})
+    assert row.verdict == MISSING and row.missing == ("c/y",)
+    assert row.ours == "x = 1\ny: —"  # one chapter: keys shown without the prefix
+    mixed = results.judge(Claim("P", "T", "s", "v", Less("a/x", "b/y")), {})
+    assert mixed.ours == "a/x: —\nb/y: —"
+
+
+# ---------------------------------------------------------------------------------------------- registry
+
+
+def test_registry_is_well_formed():
+    assert len(CLAIMS) >= 15
+    assert {c.paper for c in CLAIMS} == {"DisCoRD", "M2D2M"}
+    for claim in CLAIMS:
+        for key in claim.keys:
+            prefix, _, name = key.partition("/")
+            assert prefix in results.CHAPTERS, f"{key}: unknown chapter prefix"
+            assert re.fullmatch(r"[a-z0-9][a-z0-9_.\-]*", name), key
+        assert claim.statement and claim.paper_value and claim.source
+    assert set(results.PAPER_NUMBERS) <= set(results.claim_keys())
+
+
+def test_rules_reproduce_each_papers_conclusion_on_its_own_numbers():
+    """Judged on the papers' own numbers, every claim that has them must hold: the rules point right."""
+    table = results.claims_table("smoke", recorded=results.paper_results())
+    judged = [row for row in table if row.verdict != MISSING]
+    assert len(judged) >= 14
+    assert all(row.verdict == HOLDS for row in judged), [(r.rule, r.verdict) for r in judged]
+    # ...and flipping a number breaks the claim that reads it.
+    flipped = dict(results.paper_results())
+    flipped["discord/sjpe_rf"] = Result("discord", "sjpe_rf", 0.9)
+    assert results.claims_table("smoke", recorded=flipped).rows[0].verdict == FAILS
+
+
+def test_claims_table_with_nothing_recorded_lists_every_claim(results_root):
+    table = results.claims_table("laptop")
+    assert len(table) == len(CLAIMS)
+    assert table.counts()[MISSING] == len(CLAIMS)
+    html = table._repr_html_()
+    assert html.count("<tr>") == len(CLAIMS) + 1 and "not yet measured" in html
+    assert table.to_markdown().count("\n") == len(CLAIMS) + 1
+
+
+def test_claims_table_uses_recorded_numbers(results_root):
+    results.record("discord", "sjpe_rf", 0.40, ci=0.01, profile="smoke")
+    results.record("discord", "sjpe_ff", 0.52, ci=0.01, profile="smoke")
+    results.record("tps", "jerk_gt_single", 1.2, profile="smoke")
+    results.record("tps", "jerk_gt_concat", 1.1, profile="smoke")
+    rows = {row.rule: row for row in results.claims_table("smoke")}
+    assert rows["discord/sjpe_rf < discord/sjpe_ff"].verdict == HOLDS
+    assert rows["tps/jerk_gt_concat > tps/jerk_gt_single"].verdict == FAILS
+    assert "<script" not in results.claims_table("smoke")._repr_html_()
