@@ -1,0 +1,117 @@
+"""Training a tokenizer on motion windows, and the train-once cache the chapters load from."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+from ..train import Trainer, WindowDataset, load_trained, train_or_load
+from .config import RVQConfig, VQConfig, rvq_config, vq_config
+from .losses import tokenizer_loss
+from .models import RVQVAE, VQVAE, ConvTokenizer, build_tokenizer
+
+Clips = Sequence[np.ndarray]
+KINDS = {"vq": vq_config, "rvq": rvq_config}
+
+
+def tokenizer_loss_fn(model: ConvTokenizer, batch: torch.Tensor, generator: torch.Generator) -> dict:
+    """The :class:`~motionlab.train.Trainer` loss: reconstruction + ric + commitment, plus codebook stats."""
+    c = model.config
+    out = model(batch, generator=generator)
+    terms = tokenizer_loss(out.recon, batch, out.commit_loss, c.n_joints, c.ric_weight, c.commit_weight)
+    terms["perplexity"] = out.perplexity.detach().float().mean()  # mean over residual layers for RVQ
+    return terms
+
+
+def window_validation(model: ConvTokenizer, clips: Clips, n_windows: int = 256, seed: int = 0) -> Callable:
+    """A ``val_fn`` measuring reconstruction (argmin codes, no updates) on a fixed set of held-out windows."""
+    data = WindowDataset(clips, model.config.window)
+    windows = data.sample(min(n_windows, len(data)), torch.Generator().manual_seed(seed))
+
+    def val_fn(m: ConvTokenizer) -> dict[str, float]:
+        x = windows.to(m.device)
+        recon = m.decode(m.encode(x))
+        return {"recon": float(F.smooth_l1_loss(recon, x)), "mse": float(F.mse_loss(recon, x))}
+
+    return val_fn
+
+
+def train_tokenizer(
+    model: ConvTokenizer,
+    train_clips: Clips,
+    val_clips: Clips | None = None,
+    *,
+    workdir: str | Path | None = None,
+    device: str | None = None,
+    progress: bool = True,
+) -> list[dict[str, float]]:
+    """Train ``model`` on random windows of normalised ``train_clips``; returns the logged history."""
+    c = model.config
+    data = WindowDataset(train_clips, c.window)
+    if data.feature_dim != c.feature_dim:
+        raise ValueError(f"train_clips have {data.feature_dim} features, the config expects {c.feature_dim}")
+    val_fn = window_validation(model, val_clips) if val_clips is not None else None
+    trainer = Trainer(model, tokenizer_loss_fn, data.batches(c.batch_size), c.train, val_fn=val_fn,
+                      workdir=workdir, device=device, desc=type(model).__name__, progress=progress)  # fmt: skip
+    history = trainer.fit()
+    if val_fn is not None and not (history and any(k.startswith("val_") for k in history[-1])):
+        history.append({"step": trainer.step, **trainer.validate()})
+    model.eval()
+    return history
+
+
+def _config_for(kind: str, profile: str | None, config: VQConfig | None) -> VQConfig:
+    if kind not in KINDS:
+        raise ValueError(f"kind must be one of {sorted(KINDS)}, got {kind!r}")
+    if config is None:
+        return KINDS[kind](profile)
+    expected = RVQConfig if kind == "rvq" else VQConfig
+    if type(config) is not expected:
+        raise ValueError(f"kind {kind!r} needs a {expected.__name__}, got {type(config).__name__}")
+    return config
+
+
+def train_or_load_tokenizer(
+    kind: str,
+    train_clips: Clips | Callable[[], Clips],
+    profile: str | None = None,
+    *,
+    val_clips: Clips | Callable[[], Clips] | None = None,
+    config: VQConfig | None = None,
+    name: str | None = None,
+    data_key: str = "",
+    device: str | None = None,
+    progress: bool = True,
+) -> VQVAE | RVQVAE:
+    """The cached ``"vq"`` or ``"rvq"`` tokenizer for ``profile``, trained on first use.
+
+    ``train_clips`` (and ``val_clips``) may be callables so the data is only loaded when training is
+    needed; ``data_key`` names the data (it enters the cache hash, so other data means another model).
+    """
+    config = _config_for(kind, profile, config)
+
+    def train_fn(model: ConvTokenizer, workdir: Path) -> list[dict[str, float]]:
+        clips = train_clips() if callable(train_clips) else train_clips
+        val = val_clips() if callable(val_clips) else val_clips
+        return train_tokenizer(model, clips, val, workdir=workdir, device=device, progress=progress)
+
+    return train_or_load(name or kind, config, build_tokenizer, train_fn, profile,
+                         extra={"data": data_key}, device=device)  # fmt: skip
+
+
+def load_tokenizer(
+    kind: str,
+    profile: str | None = None,
+    *,
+    config: VQConfig | None = None,
+    name: str | None = None,
+    data_key: str = "",
+    device: str | None = None,
+) -> VQVAE | RVQVAE:
+    """A tokenizer trained earlier by :func:`train_or_load_tokenizer` (``FileNotFoundError`` if there is none)."""
+    config = _config_for(kind, profile, config)
+    return load_trained(name or kind, config, build_tokenizer, profile, extra={"data": data_key}, device=device)

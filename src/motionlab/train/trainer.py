@@ -1,0 +1,219 @@
+"""The one training loop every model of the book uses.
+
+A model brings two functions and the loop does the rest (AdamW, warm-up schedule, clipping, EMA,
+progress bar, validation, checkpoints, resume):
+
+- ``batch_fn(step, generator) -> batch``: draws the batch for ``step`` from the *data* generator;
+- ``loss_fn(model, batch, generator) -> {"loss": tensor, ...}``: any extra scalar terms are logged;
+  ``generator`` is the *noise* generator (flow-matching noise, diffusion steps, code resets, ...).
+
+Both generators are saved in every checkpoint together with the optimizer moments and torch's global
+RNG (which ``nn.Dropout`` reads; a fresh run seeds it from ``config.seed``), so training N steps in one
+go or N/2 + resume + N/2 produces the same bits. The learning rate is a pure function of the step
+(:mod:`.schedules`), so there is no scheduler state to lose.
+
+    trainer = Trainer(model, loss_fn, dataset.batches(64), TrainConfig(steps=2000), workdir=folder)
+    history = trainer.fit()          # resumes from folder's latest checkpoint if there is one
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import torch
+from torch import nn
+from tqdm.auto import tqdm
+
+from .checkpoint import latest_checkpoint, load_checkpoint, prune_checkpoints, save_checkpoint
+from .device import get_device, to_device
+from .ema import EMA
+from .schedules import SCHEDULES, lr_multiplier, set_lr
+
+LossFn = Callable[[nn.Module, Any, torch.Generator], dict[str, torch.Tensor]]
+BatchFn = Callable[[int, torch.Generator], Any]
+ValFn = Callable[[nn.Module], dict[str, float]]
+
+# settings that change what is printed or saved, never the weights: a run may resume with other values
+_COSMETIC = {"log_every", "val_every", "ckpt_every", "keep_checkpoints"}
+
+
+@dataclass
+class TrainConfig:
+    """Optimisation settings shared by all models (defaults are T2M-GPT's optimiser, not its length)."""
+
+    steps: int = 1000
+    lr: float = 2e-4
+    betas: tuple[float, float] = (0.9, 0.99)
+    weight_decay: float = 0.0
+    schedule: str = "cosine"  # "constant" | "cosine" | "multistep"
+    warmup_steps: int = 0
+    min_lr_ratio: float = 0.1  # cosine floor, as a fraction of lr
+    milestones: tuple[int, ...] = ()  # multistep: steps where lr is multiplied by gamma
+    gamma: float = 0.1
+    grad_clip: float | None = None  # max global gradient norm
+    ema_decay: float | None = None  # None: no weight averaging
+    seed: int = 0
+    log_every: int = 10
+    val_every: int = 0  # 0: never validate during training
+    ckpt_every: int = 0  # 0: checkpoint only at the end of fit()
+    keep_checkpoints: int = 2
+
+    def __post_init__(self):
+        if self.steps < 1 or self.lr <= 0:
+            raise ValueError(f"steps must be >= 1 and lr > 0, got steps={self.steps}, lr={self.lr}")
+        if self.schedule not in SCHEDULES:
+            raise ValueError(f"schedule must be one of {SCHEDULES}, got {self.schedule!r}")
+        if self.warmup_steps < 0 or self.log_every < 1:
+            raise ValueError("warmup_steps must be >= 0 and log_every >= 1")
+        self.betas = tuple(self.betas)
+        self.milestones = tuple(self.milestones)
+
+    def lr_at(self, step: int) -> float:
+        return self.lr * lr_multiplier(
+            step, schedule=self.schedule, warmup_steps=self.warmup_steps, total_steps=self.steps,
+            min_lr_ratio=self.min_lr_ratio, milestones=self.milestones, gamma=self.gamma,
+        )  # fmt: skip
+
+
+class Trainer:
+    """Train ``model`` with ``loss_fn`` on batches from ``batch_fn``; resumes from ``workdir``'s latest checkpoint."""
+
+    def __init__(
+        self,
+        model: nn.Module,
+        loss_fn: LossFn,
+        batch_fn: BatchFn,
+        config: TrainConfig,
+        *,
+        val_fn: ValFn | None = None,
+        workdir: str | os.PathLike | None = None,
+        device: str | torch.device | None = None,
+        desc: str = "train",
+        progress: bool = True,
+    ):
+        self.config = config
+        self.device = get_device(device)
+        self.model = model.to(self.device)
+        self.loss_fn, self.batch_fn, self.val_fn = loss_fn, batch_fn, val_fn
+        self.workdir = Path(workdir) if workdir is not None else None
+        self.desc, self.progress = desc, progress
+        params = [p for p in self.model.parameters() if p.requires_grad]
+        self.optimizer = torch.optim.AdamW(params, lr=config.lr, betas=config.betas, weight_decay=config.weight_decay)
+        self.ema = EMA(self.model, config.ema_decay) if config.ema_decay else None
+        # Two streams: data order stays the same when a model changes how much noise it draws.
+        self.data_generator = torch.Generator().manual_seed(config.seed)
+        self.noise_generator = torch.Generator(device=self.device).manual_seed(config.seed + 1)
+        self.step = 0
+        self.history: list[dict[str, float]] = []
+        self._acc: dict[str, float] = {}  # running sums of logged terms since the last log line
+        self._acc_n = 0
+        if self.workdir is not None and (ckpt := latest_checkpoint(self.workdir)) is not None:
+            self.resume(ckpt)
+        else:
+            # nn.Dropout and friends read torch's global RNG: seed it so a run is a function of its config
+            torch.manual_seed(config.seed)
+
+    # -- one optimisation step ------------------------------------------------------------------------------
+    def train_step(self) -> dict[str, float]:
+        cfg = self.config
+        set_lr(self.optimizer, cfg.lr_at(self.step))
+        self.model.train()
+        batch = to_device(self.batch_fn(self.step, self.data_generator), self.device)
+        terms = self.loss_fn(self.model, batch, self.noise_generator)
+        if "loss" not in terms:
+            raise ValueError(f"loss_fn must return a dict with a 'loss' entry, got keys {sorted(terms)}")
+        loss = terms["loss"]
+        if not torch.isfinite(loss):
+            raise FloatingPointError(f"loss is {loss.item()} at step {self.step}")
+        self.optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        logged = {k: float(v.detach()) if torch.is_tensor(v) else float(v) for k, v in terms.items()}
+        if cfg.grad_clip is not None:
+            logged["grad_norm"] = float(nn.utils.clip_grad_norm_(self.model.parameters(), cfg.grad_clip))
+        self.optimizer.step()
+        if self.ema is not None:
+            self.ema.update(self.model)
+        self.step += 1
+        return logged
+
+    # -- the loop ----------------------------------------------------------------------------------------------
+    def fit(self, until: int | None = None) -> list[dict[str, float]]:
+        """Train up to step ``until`` (default: ``config.steps``); returns the history of logged averages."""
+        cfg = self.config
+        stop = cfg.steps if until is None else min(until, cfg.steps)
+        bar = tqdm(total=cfg.steps, initial=self.step, desc=self.desc, disable=not self.progress, leave=False)
+        try:
+            while self.step < stop:
+                logged = self.train_step()
+                bar.update(1)
+                for k, v in logged.items():
+                    self._acc[k] = self._acc.get(k, 0.0) + v
+                self._acc_n += 1
+                if self.step % cfg.log_every == 0 or self.step == cfg.steps:
+                    row = {"step": self.step, "lr": cfg.lr_at(self.step - 1)}
+                    row.update({k: v / self._acc_n for k, v in self._acc.items()})
+                    self.history.append(row)
+                    self._acc, self._acc_n = {}, 0
+                    bar.set_postfix(loss=f"{row['loss']:.4f}", lr=f"{row['lr']:.2e}")
+                if cfg.val_every and self.step % cfg.val_every == 0:
+                    self.history.append({"step": self.step, **self.validate()})
+                if self.workdir is not None and cfg.ckpt_every and self.step % cfg.ckpt_every == 0:
+                    self.save()
+        finally:
+            bar.close()
+        if self.workdir is not None and latest_checkpoint(self.workdir) != self.workdir / f"step_{self.step:08d}":
+            self.save()
+        return self.history
+
+    @torch.no_grad()
+    def validate(self) -> dict[str, float]:
+        """Run ``val_fn`` in eval mode (with EMA weights when an EMA is kept); keys get a ``val_`` prefix."""
+        if self.val_fn is None:
+            return {}
+        self.model.eval()
+        if self.ema is not None:
+            with self.ema.apply_to(self.model):
+                metrics = self.val_fn(self.model)
+        else:
+            metrics = self.val_fn(self.model)
+        self.model.train()
+        return {f"val_{k}": float(v) for k, v in metrics.items()}
+
+    # -- checkpoints -------------------------------------------------------------------------------------------
+    def _generators(self) -> dict[str, torch.Generator]:
+        return {"data": self.data_generator, "noise": self.noise_generator}
+
+    def save(self) -> Path:
+        if self.workdir is None:
+            raise ValueError("this Trainer has no workdir to save checkpoints in")
+        meta = {
+            "config": asdict(self.config),
+            "history": self.history,
+            "acc": self._acc,
+            "acc_n": self._acc_n,
+        }
+        path = save_checkpoint(self.workdir, self.step, self.model, self.optimizer, self.ema, self._generators(), meta)
+        prune_checkpoints(self.workdir, self.config.keep_checkpoints)
+        return path
+
+    def resume(self, path: str | os.PathLike) -> None:
+        meta = load_checkpoint(path, self.model, self.optimizer, self.ema, self._generators())
+        saved, current = meta["config"], json.loads(json.dumps(asdict(self.config)))
+        differ = sorted(k for k in current if k not in _COSMETIC and saved.get(k) != current[k])
+        if differ:
+            raise ValueError(f"checkpoint {path} was written with a different TrainConfig: {', '.join(differ)} differ")
+        self.step = int(meta["step"])
+        self.history = list(meta["history"])
+        self._acc, self._acc_n = dict(meta["acc"]), int(meta["acc_n"])
+
+
+def final_loss(history: list[dict[str, float]]) -> float:
+    """The last logged training loss (NaN when nothing was logged)."""
+    rows = [r for r in history if "loss" in r]
+    return rows[-1]["loss"] if rows else math.nan

@@ -1,0 +1,118 @@
+"""train_or_load: trains once, caches by config hash, never loads a half-finished run."""
+
+from dataclasses import dataclass
+
+import pytest
+import torch
+from torch import nn
+
+from motionlab.train import (
+    TrainConfig,
+    Trainer,
+    artefact_dir,
+    config_hash,
+    is_trained,
+    load_result,
+    load_trained,
+    seeded,
+    train_or_load,
+)
+
+
+@dataclass
+class ToyConfig:
+    hidden: int = 4
+    train: TrainConfig = None
+
+    def __post_init__(self):
+        if self.train is None:
+            self.train = TrainConfig(steps=10, lr=1e-2, log_every=5)
+
+
+def build(config):
+    with seeded(0):
+        return nn.Sequential(nn.Linear(2, config.hidden), nn.Tanh(), nn.Linear(config.hidden, 1))
+
+
+def batch_fn(step, generator):
+    x = torch.randn(8, 2, generator=generator)
+    return x, x.sum(-1, keepdim=True)
+
+
+def loss_fn(model, batch, generator):
+    x, y = batch
+    return {"loss": ((model(x) - y) ** 2).mean()}
+
+
+class Counter:
+    def __init__(self, fail_at=None):
+        self.calls, self.fail_at = 0, fail_at
+
+    def __call__(self, model, workdir):
+        self.calls += 1
+        trainer = Trainer(model, loss_fn, batch_fn, model_config(model).train, workdir=workdir, progress=False)
+        self.started_at = trainer.step
+        if self.fail_at is not None:
+            trainer.fit(until=self.fail_at)
+            raise RuntimeError("killed")
+        return trainer.fit()
+
+
+def model_config(model):
+    return ToyConfig(hidden=model[0].out_features)
+
+
+@pytest.fixture(autouse=True)
+def home(tmp_path, monkeypatch):
+    monkeypatch.setenv("MOTIONLAB_HOME", str(tmp_path))
+    return tmp_path
+
+
+def test_trains_once_then_loads(home):
+    cfg, train = ToyConfig(), Counter()
+    assert not is_trained("toy", cfg, "smoke")
+    with pytest.raises(FileNotFoundError):
+        load_trained("toy", cfg, build, "smoke")
+    first = train_or_load("toy", cfg, build, train, "smoke", device="cpu")
+    second = train_or_load("toy", cfg, build, train, "smoke", device="cpu")
+    assert train.calls == 1 and not second.training
+    for a, b in zip(first.state_dict().values(), second.state_dict().values()):
+        assert torch.equal(a, b)
+    folder = artefact_dir("toy", cfg, "smoke")
+    assert folder.parent == home / "models" / "toy" / "smoke" and folder.name == config_hash(cfg)
+    assert sorted(p.name for p in folder.iterdir()) == ["config.json", "model.safetensors", "result.json"]
+    assert not folder.with_name(folder.name + ".work").exists()  # checkpoints cleaned up
+    assert load_result("toy", cfg, "smoke")[-1]["step"] == 10
+
+
+def test_config_profile_and_extra_change_retrains():
+    train = Counter()
+    train_or_load("toy", ToyConfig(), build, train, "smoke")
+    train_or_load("toy", ToyConfig(hidden=5), build, train, "smoke")
+    train_or_load("toy", ToyConfig(), build, train, "laptop")
+    train_or_load("toy", ToyConfig(), build, train, "smoke", extra={"data": "v2"})
+    assert train.calls == 4
+    changed = ToyConfig(train=TrainConfig(steps=10, lr=2e-2, log_every=5))
+    assert config_hash(changed) != config_hash(ToyConfig())
+    train_or_load("toy", ToyConfig(), build, train, "smoke", retrain=True)
+    assert train.calls == 5
+
+
+def test_failed_training_leaves_no_artefact_and_resumes():
+    cfg = ToyConfig()
+    with pytest.raises(RuntimeError, match="killed"):
+        train_or_load("toy", cfg, build, Counter(fail_at=6), "smoke")
+    assert not is_trained("toy", cfg, "smoke")
+    again = Counter()
+    train_or_load("toy", cfg, build, again, "smoke")
+    assert again.started_at == 6  # picked up the interrupted run's checkpoint
+    assert is_trained("toy", cfg, "smoke")
+
+
+def test_bad_names_and_configs():
+    with pytest.raises(ValueError, match="plain folder"):
+        artefact_dir("a/b", ToyConfig(), "smoke")
+    with pytest.raises(ValueError, match="dataclass"):
+        config_hash({"hidden": 4})
+    with pytest.raises(ValueError, match="profile"):
+        artefact_dir("toy", ToyConfig(), "huge")
