@@ -97,3 +97,14 @@ def test_caption_parsing_and_cropping():
 def test_real_sample_folder_is_checked(shared_data):
     problems = check_dataset(shared_data / "humanml3d-sample")
     assert "missing texts" in problems and "missing split file train.txt" in problems
+
+
+def test_normalized_clips_and_key(tmp_path):
+    write_tiny_dataset(tmp_path)
+    ds = MotionDataset(tmp_path)
+    z = ds.normalized("train")
+    assert len(z) == len(ds.split("train"))
+    assert np.allclose(ds.normalizer.denormalize(z[0]), ds.split("train")[0].features, atol=1e-5)
+    key = ds.key
+    Normalizer(np.zeros(263), np.ones(263)).save(tmp_path)
+    assert MotionDataset(tmp_path).key != key  # other statistics, other models

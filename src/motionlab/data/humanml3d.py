@@ -16,6 +16,7 @@ and so does :func:`load_split`.
 
 from __future__ import annotations
 
+import hashlib
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -181,6 +182,16 @@ class MotionDataset:
     @property
     def fps(self) -> float:
         return self.skeleton.fps
+
+    @property
+    def key(self) -> str:
+        """A short name for this data and its normalisation, for cache keys of models trained on it."""
+        digest = hashlib.sha1(self.normalizer.mean.tobytes() + self.normalizer.std.tobytes()).hexdigest()[:10]
+        return f"{self.root.name}-{digest}"
+
+    def normalized(self, split: str, **kwargs) -> list[np.ndarray]:
+        """The split's features, z-normalised with the dataset's Mean/Std (what models train on)."""
+        return [self.normalizer.normalize(c.features) for c in self.split(split, **kwargs)]
 
     def ids(self, split: str) -> list[str]:
         return read_split_ids(self.root, split)
