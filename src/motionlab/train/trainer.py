@@ -32,6 +32,14 @@ from tqdm.auto import tqdm
 
 from .checkpoint import latest_checkpoint, load_checkpoint, prune_checkpoints, save_checkpoint
 from .device import get_device, to_device
+from .distributed import (
+    average_gradients,
+    average_scalars,
+    barrier,
+    current_context,
+    gather_generator_states,
+    shard_batch,
+)
 from .ema import EMA
 from .schedules import SCHEDULES, lr_multiplier, set_lr
 
@@ -98,18 +106,24 @@ class Trainer:
         progress: bool = True,
     ):
         self.config = config
+        # Under torchrun every process holds one replica; see motionlab.train.distributed.
+        self.dist = current_context()
+        if device is None and self.dist.enabled and torch.cuda.is_available():
+            device = f"cuda:{self.dist.local_rank}"
         self.device = get_device(device)
         self.model = model.to(self.device)
         self.loss_fn, self.batch_fn, self.val_fn = loss_fn, batch_fn, val_fn
         self.workdir = Path(workdir) if workdir is not None else None
-        self.desc, self.progress = desc, progress
+        self.desc, self.progress = desc, progress and self.dist.is_main
         params = [p for p in self.model.parameters() if p.requires_grad]
         self.optimizer = torch.optim.AdamW(params, lr=config.lr, betas=config.betas, weight_decay=config.weight_decay)
         self.ema = EMA(self.model, config.ema_decay) if config.ema_decay else None
         # Two streams: data order stays the same when a model changes how much noise it draws.
         self.data_generator = torch.Generator().manual_seed(config.seed)
-        self.noise_generator = torch.Generator(device=self.device).manual_seed(config.seed + 1)
+        # Each rank draws its own noise; rank 0's stream is the single-process stream.
+        self.noise_generator = torch.Generator(device=self.device).manual_seed(config.seed + 1 + 1000 * self.dist.rank)
         self.step = 0
+        self._saved_step: int | None = None
         self.history: list[dict[str, float]] = []
         self._acc: dict[str, float] = {}  # running sums of logged terms since the last log line
         self._acc_n = 0
@@ -124,7 +138,8 @@ class Trainer:
         cfg = self.config
         set_lr(self.optimizer, cfg.lr_at(self.step))
         self.model.train()
-        batch = to_device(self.batch_fn(self.step, self.data_generator), self.device)
+        # The global batch is drawn identically on every rank; each keeps its shard.
+        batch = to_device(shard_batch(self.batch_fn(self.step, self.data_generator), self.dist), self.device)
         terms = self.loss_fn(self.model, batch, self.noise_generator)
         if "loss" not in terms:
             raise ValueError(f"loss_fn must return a dict with a 'loss' entry, got keys {sorted(terms)}")
@@ -133,7 +148,9 @@ class Trainer:
             raise FloatingPointError(f"loss is {loss.item()} at step {self.step}")
         self.optimizer.zero_grad(set_to_none=True)
         loss.backward()
+        average_gradients(self.model.parameters(), self.dist)
         logged = {k: float(v.detach()) if torch.is_tensor(v) else float(v) for k, v in terms.items()}
+        logged = average_scalars(logged, self.dist)
         if cfg.grad_clip is not None:
             logged["grad_norm"] = float(nn.utils.clip_grad_norm_(self.model.parameters(), cfg.grad_clip))
         self.optimizer.step()
@@ -167,7 +184,7 @@ class Trainer:
                     self.save()
         finally:
             bar.close()
-        if self.workdir is not None and latest_checkpoint(self.workdir) != self.workdir / f"step_{self.step:08d}":
+        if self.workdir is not None and self._saved_step != self.step:
             self.save()
         return self.history
 
@@ -186,20 +203,32 @@ class Trainer:
         return {f"val_{k}": float(v) for k, v in metrics.items()}
 
     # -- checkpoints -------------------------------------------------------------------------------------------
+    def _noise_name(self, rank: int) -> str:
+        return "noise" if rank == 0 else f"noise_rank{rank}"
+
     def _generators(self) -> dict[str, torch.Generator]:
-        return {"data": self.data_generator, "noise": self.noise_generator}
+        return {"data": self.data_generator, self._noise_name(self.dist.rank): self.noise_generator}
 
     def save(self) -> Path:
+        """Write a checkpoint (rank 0 writes; with several ranks, every rank must call this)."""
         if self.workdir is None:
             raise ValueError("this Trainer has no workdir to save checkpoints in")
+        generators = {"data": self.data_generator}
+        for rank, state in enumerate(gather_generator_states(self.noise_generator, self.dist)):
+            generators[self._noise_name(rank)] = torch.Generator(device=self.noise_generator.device)
+            generators[self._noise_name(rank)].set_state(state)
         meta = {
             "config": asdict(self.config),
             "history": self.history,
             "acc": self._acc,
             "acc_n": self._acc_n,
         }
-        path = save_checkpoint(self.workdir, self.step, self.model, self.optimizer, self.ema, self._generators(), meta)
-        prune_checkpoints(self.workdir, self.config.keep_checkpoints)
+        path = self.workdir / f"step_{self.step:08d}"
+        if self.dist.is_main:
+            path = save_checkpoint(self.workdir, self.step, self.model, self.optimizer, self.ema, generators, meta)
+            prune_checkpoints(self.workdir, self.config.keep_checkpoints)
+        barrier(self.dist)
+        self._saved_step = self.step
         return path
 
     def resume(self, path: str | os.PathLike) -> None:
@@ -208,7 +237,7 @@ class Trainer:
         differ = sorted(k for k in current if k not in _COSMETIC and saved.get(k) != current[k])
         if differ:
             raise ValueError(f"checkpoint {path} was written with a different TrainConfig: {', '.join(differ)} differ")
-        self.step = int(meta["step"])
+        self.step = self._saved_step = int(meta["step"])
         self.history = list(meta["history"])
         self._acc, self._acc_n = dict(meta["acc"]), int(meta["acc_n"])
 
