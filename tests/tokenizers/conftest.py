@@ -22,12 +22,3 @@ def smooth_motion():
 def isolated_cache(tmp_path, monkeypatch):
     """Nothing a test trains may land in the real cache."""
     monkeypatch.setenv("MOTIONLAB_HOME", str(tmp_path / "home"))
-
-
-@pytest.fixture(autouse=True)
-def one_thread():
-    """Tiny convs run several times faster on one thread (no OpenMP hand-offs), more so on a shared CPU."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)

@@ -1,0 +1,122 @@
+"""Condition projection: from token code vectors ``(B, N, d)`` to frame-wise features ``(B, q·N, c)``.
+
+A token summarises ``q`` consecutive frames (q = 4, the tokenizer's temporal downsampling), so the
+decoder needs ``q`` *different* features per token, one per frame. DisCoRD's projection ("stacked"):
+
+    z_n ∈ R^d  --repeat q times-->  (q, d)  --stack-->  R^{q·d}  --W ∈ R^{q·d × q·d}-->  R^{q·d}
+              --unstack-->  q frame vectors in R^d  --per-frame linear d → c-->  c_{qn}, …, c_{qn+q−1}
+
+Each slot of the projected vector has its own rows of ``W``, so the q frames of one token get different
+features, and no frame ever sees a neighbouring token (token ↔ frame correspondence is kept).
+(As a function, "repeat then stack then W" equals one linear map d → q·d whose weight is the sum of W's
+q column blocks; we keep the paper's form, which is what the public code trains.)
+
+Ablations (DisCoRD Table 6):
+- ``"repeat"``: nearest upsampling then a per-frame linear: the q frames of a token get *identical* features.
+- ``"transposed"``: a strided transposed convolution (up-convolution). Its kernel is wider than the stride,
+  so frames near a token boundary mix neighbouring tokens: the token ↔ frame correspondence is blurred.
+"""
+
+from __future__ import annotations
+
+from torch import Tensor, nn
+
+CONDITION_PROJECTIONS = ("stacked", "repeat", "transposed")
+
+
+class _Projection(nn.Module):
+    """Shared input check: ``(B, N, code_dim)`` in, ``(B, q·N, cond_dim)`` out."""
+
+    def __init__(self, code_dim: int, cond_dim: int, q: int) -> None:
+        super().__init__()
+        self.code_dim, self.cond_dim, self.q = code_dim, cond_dim, q
+
+    def forward(self, z: Tensor) -> Tensor:
+        if not isinstance(z, Tensor) or z.dim() != 3 or z.shape[-1] != self.code_dim:
+            got = tuple(z.shape) if isinstance(z, Tensor) else type(z).__name__
+            raise ValueError(f"code vectors must have shape (B, N, {self.code_dim}), got {got}")
+        return self.project(z)
+
+    def project(self, z: Tensor) -> Tensor:
+        raise NotImplementedError
+
+
+class StackedProjection(_Projection):
+    """DisCoRD: repeat each token q times, stack to q·d, linear q·d → q·d, unstack, linear d → c."""
+
+    def __init__(self, code_dim: int, cond_dim: int, q: int = 4) -> None:
+        super().__init__(code_dim, cond_dim, q)
+        self.stacked = nn.Linear(q * code_dim, q * code_dim)
+        self.frame = nn.Linear(code_dim, cond_dim)
+
+    def project(self, z: Tensor) -> Tensor:
+        B, N, d = z.shape
+        repeated = z.repeat_interleave(self.q, dim=1)  # (B, q·N, d): frame f carries token f // q
+        stacked = repeated.reshape(B, N, self.q * d)  # (B, N, q·d): the q copies of token n side by side
+        projected = self.stacked(stacked)  # (B, N, q·d)
+        frames = projected.reshape(B, N * self.q, d)  # (B, q·N, d): unstack into q frame vectors
+        return self.frame(frames)  # (B, q·N, c)
+
+
+class RepeatProjection(_Projection):
+    """Ablation: nearest upsampling (repeat) then a per-frame linear d → c; q identical features per token."""
+
+    def __init__(self, code_dim: int, cond_dim: int, q: int = 4) -> None:
+        super().__init__(code_dim, cond_dim, q)
+        self.frame = nn.Linear(code_dim, cond_dim)
+
+    def project(self, z: Tensor) -> Tensor:
+        return self.frame(z.repeat_interleave(self.q, dim=1))  # (B, q·N, c)
+
+
+class TransposedConvProjection(_Projection):
+    """Ablation: ``ConvTranspose1d(d → c, kernel q + 2p, stride q, padding p)`` with ``p = q // 2``.
+
+    Output length ``(N − 1)·q − 2p + (q + 2p) = q·N``; each output frame sees one or two tokens.
+    """
+
+    def __init__(self, code_dim: int, cond_dim: int, q: int = 4) -> None:
+        super().__init__(code_dim, cond_dim, q)
+        pad = q // 2
+        self.up = nn.ConvTranspose1d(code_dim, cond_dim, kernel_size=q + 2 * pad, stride=q, padding=pad)
+
+    def project(self, z: Tensor) -> Tensor:
+        return self.up(z.transpose(1, 2)).transpose(1, 2)  # (B, d, N) -> (B, c, q·N) -> (B, q·N, c)
+
+
+_KINDS: dict[str, type[_Projection]] = {
+    "stacked": StackedProjection,
+    "repeat": RepeatProjection,
+    "transposed": TransposedConvProjection,
+}
+
+
+def make_condition_projection(kind: str, code_dim: int, cond_dim: int, q: int = 4) -> nn.Module:
+    """Build a projection ``(B, N, code_dim) -> (B, q·N, cond_dim)``; ``kind`` in :data:`CONDITION_PROJECTIONS`."""
+    if kind not in _KINDS:
+        raise ValueError(f"kind must be one of {CONDITION_PROJECTIONS}, got {kind!r}")
+    for name, value in (("code_dim", code_dim), ("cond_dim", cond_dim), ("q", q)):
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            raise ValueError(f"{name} must be a positive int, got {value!r}")
+    return _KINDS[kind](code_dim, cond_dim, q)
+
+
+def frames_per_token_distinct(features: Tensor, q: int, atol: float = 1e-6) -> Tensor:
+    """For frame features ``(B, q·N, c)``, whether the q frames of each token differ: ``(B, N)`` bool.
+
+    A diagnostic for the "q distinct features" property (the chapter plots it; the tests assert it).
+    """
+    B, T, c = features.shape
+    grouped = features.reshape(B, T // q, q, c)  # (B, N, q, c)
+    spread = (grouped - grouped[:, :, :1]).abs().amax(dim=(2, 3))  # (B, N)
+    return spread > atol
+
+
+__all__ = [
+    "CONDITION_PROJECTIONS",
+    "RepeatProjection",
+    "StackedProjection",
+    "TransposedConvProjection",
+    "frames_per_token_distinct",
+    "make_condition_projection",
+]

@@ -1,0 +1,140 @@
+"""DisCoRD decoder configurations, one per run profile (smoke / laptop / full).
+
+``full`` is the paper's Table A (HumanML3D, MoMask RVQ tokens) plus what the public training script does
+where the table is silent:
+
+=====================  ===========================================================================
+U-Net                   width 512, mults (1, 2) → dims [512, 512, 1024], 1 ResNet per level (2 conv
+                        blocks each), no attention, dropout 0; input 263 features ‖ 256 condition
+Condition projection    "stacked": 512 ·4 → 2048 → 2048, then 512 → 256 per frame.
+                        U-Net + projection = 66.9 M parameters (Table A: 66.9 M)
+Training                window 64, batch 768, AdamW (0.9, 0.999), torch-default weight decay 0.01,
+                        lr 5e-4, cosine to 1e-5 with 20 of 200 epochs warm-up (481,896 steps in all,
+                        so ≈ 48,190 warm-up steps), grad-norm clip 1.0, EMA 0.999, MSE flow loss
+Sampling                16-point grid with midpoint = 15 intervals = 30 network evaluations
+=====================  ===========================================================================
+
+``feature_dim`` and ``code_dim`` must match the tokenizer; pass it (or overrides) to :func:`discord_config`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, replace
+from typing import Any
+
+from motionlab.flow.condition import CONDITION_PROJECTIONS
+from motionlab.flow.rectified_flow import SOLVERS, ODESolver
+from motionlab.flow.unet1d import UNetConfig
+from motionlab.profiles import get_profile
+from motionlab.train import TrainConfig
+
+
+@dataclass(frozen=True)
+class DisCoRDConfig:
+    # --- model
+    feature_dim: int = 263  # D: 263 HumanML3D, 251 KIT
+    code_dim: int = 512  # d: the tokenizer's code vector width
+    q: int = 4  # frames per token (the tokenizer's temporal downsampling)
+    cond_dim: int = 256  # c: frame-wise condition width
+    projection: str = "stacked"  # one of CONDITION_PROJECTIONS
+    width: int = 512
+    width_mults: tuple[int, ...] = (1, 2)
+    resnets_per_level: int = 1
+    dropout: float = 0.0
+    seed: int = 0  # weight initialisation: a decoder is a pure function of its config
+    # --- sampling (the decode() defaults)
+    sample_steps: int = 15  # integration intervals: 16 grid points
+    solver: str = "midpoint"
+    # --- training (consumed by the shared trainer)
+    window: int = 64  # frames per training window (= window / q tokens)
+    batch_size: int = 768
+    lr: float = 5e-4
+    min_lr: float = 1e-5
+    betas: tuple[float, float] = (0.9, 0.999)
+    weight_decay: float = 0.01
+    train_steps: int = 481_896
+    warmup_steps: int = 48_190
+    ema_decay: float = 0.999
+    grad_clip: float = 1.0
+
+    def __post_init__(self) -> None:
+        if self.projection not in CONDITION_PROJECTIONS:
+            raise ValueError(f"projection must be one of {CONDITION_PROJECTIONS}, got {self.projection!r}")
+        if self.solver not in SOLVERS:
+            raise ValueError(f"solver must be one of {SOLVERS}, got {self.solver!r}")
+        if self.window % self.q or self.window % self.unet.length_multiple:
+            raise ValueError(f"window={self.window} must be a multiple of q={self.q} and of the U-Net stride")
+        if not 0.0 <= self.ema_decay < 1.0:
+            raise ValueError(f"ema_decay must be in [0, 1), got {self.ema_decay}")
+        ODESolver(self.sample_steps, self.solver)  # validates sample_steps
+
+    @property
+    def unet(self) -> UNetConfig:
+        """The vector-field network's config; lengths must hold whole tokens and survive the halvings."""
+        return UNetConfig(
+            feature_dim=self.feature_dim,
+            cond_dim=self.cond_dim,
+            width=self.width,
+            width_mults=tuple(self.width_mults),
+            resnets_per_level=self.resnets_per_level,
+            dropout=self.dropout,
+            length_multiple=math.lcm(self.q, 2 ** (len(self.width_mults) - 1)),
+        )
+
+    @property
+    def tokens_per_window(self) -> int:
+        return self.window // self.q
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def train_config(self, **overrides: Any) -> TrainConfig:
+        """The shared trainer's settings: AdamW, linear warm-up then cosine to ``min_lr``, clip, EMA."""
+        settings: dict[str, Any] = dict(
+            steps=self.train_steps,
+            lr=self.lr,
+            betas=self.betas,
+            weight_decay=self.weight_decay,
+            schedule="cosine",
+            warmup_steps=self.warmup_steps,
+            min_lr_ratio=self.min_lr / self.lr,
+            grad_clip=self.grad_clip,
+            ema_decay=self.ema_decay,
+        )
+        return TrainConfig(**{**settings, **overrides})
+
+
+_PROFILES: dict[str, DisCoRDConfig] = {
+    # Tiny: seconds of CPU training; numbers only show that the code runs. Code width = the smoke tokenizer's.
+    "smoke": DisCoRDConfig(
+        code_dim=16, cond_dim=16, width=16, sample_steps=4, solver="euler",
+        window=16, batch_size=16, lr=1e-3, min_lr=1e-4, train_steps=60, warmup_steps=5, ema_decay=0.9,
+    ),  # fmt: skip
+    # Small (1.1 M params): ≈ 0.08 s per step on 2 CPU cores, so ≈ 5 min; code width = the laptop tokenizer's.
+    "laptop": DisCoRDConfig(
+        code_dim=64, cond_dim=64, width=64, sample_steps=8, solver="midpoint",
+        window=64, batch_size=64, lr=1e-3, min_lr=1e-5, train_steps=4000, warmup_steps=200, ema_decay=0.995,
+    ),  # fmt: skip
+    # The paper (Table A) and the public code.
+    "full": DisCoRDConfig(),
+}
+
+
+def discord_config(profile: str | None = None, tokenizer: Any = None, **overrides: Any) -> DisCoRDConfig:
+    """The config for ``profile`` (see :mod:`motionlab.profiles`), matched to ``tokenizer`` if given.
+
+    A tokenizer sets ``feature_dim``, ``code_dim`` and ``q`` (its ``downsample``); ``overrides`` win last.
+    """
+    config = _PROFILES[get_profile(profile)]
+    if tokenizer is not None:
+        config = replace(
+            config,
+            feature_dim=int(tokenizer.feature_dim),
+            code_dim=int(tokenizer.code_dim),
+            q=int(tokenizer.downsample),
+        )
+    unknown = set(overrides) - set(DisCoRDConfig.__dataclass_fields__)
+    if unknown:
+        raise ValueError(f"unknown DisCoRDConfig fields: {sorted(unknown)}")
+    return replace(config, **overrides)
