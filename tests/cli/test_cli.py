@@ -32,3 +32,14 @@ def test_module_entry_point_and_help():
     assert out.returncode == 0 and "data" in out.stdout
     bad = subprocess.run([sys.executable, "-m", "motionlab", "data", "check"], capture_output=True, text=True)
     assert bad.returncode == 2 and "path" in bad.stderr
+
+
+def test_make_embedded_writes_a_checked_dataset(tmp_path, capsys):
+    out = tmp_path / "embedded"
+    assert main(["data", "make-embedded", "--out", str(out), "--clips", "42", "--seed", "3"]) == 0
+    assert capsys.readouterr().out.strip() == str(out)
+    assert main(["data", "check", str(out)]) == 0
+    assert main(["data", "make-embedded", "--out", str(out), "--clips", "42"]) == 2  # never overwrites
+    assert "already exists" in capsys.readouterr().err
+    assert main(["data", "make-embedded", "--out", str(tmp_path / "tiny"), "--clips", "5"]) == 2  # too few clips
+    assert not (tmp_path / "tiny").exists()
