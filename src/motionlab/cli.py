@@ -40,6 +40,20 @@ def _data_make_embedded(args: argparse.Namespace) -> int:
     return 0
 
 
+def _train(args: argparse.Namespace) -> int:
+    from .data import load_dataset
+    from .profiles import get_profile
+    from .tokenizers import tokenizer_for_dataset
+
+    profile = get_profile(args.profile)
+    dataset = load_dataset(args.data, profile=profile)
+    trainers = {"vq": tokenizer_for_dataset, "rvq": tokenizer_for_dataset}
+    model = trainers[args.model](args.model, dataset, profile, device=args.device)
+    n_params = sum(p.numel() for p in model.parameters())
+    print(f"{args.model} ({profile}, data {dataset.key}): {n_params / 1e6:.2f} M parameters, trained and cached")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="motionlab", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -58,6 +72,14 @@ def build_parser() -> argparse.ArgumentParser:
     make.add_argument("--out", type=Path, default=None, help="write here instead of the cache (must not exist)")
     make.add_argument("--clips", type=int, default=None, help="number of clips (with --out)")
     make.set_defaults(func=_data_make_embedded)
+
+    train = sub.add_parser("train", help="train a model of the book (or load it if already trained); resumable")
+    train.add_argument("model", choices=["vq", "rvq"], help="which model")
+    train.add_argument("--profile", choices=["smoke", "laptop", "full"], default=None,
+                       help="model size (default: $MOTIONLAB_PROFILE or laptop)")  # fmt: skip
+    train.add_argument("--data", default=None, help="a HumanML3D/KIT-ML folder (default: the embedded dataset)")
+    train.add_argument("--device", default=None, help="cpu, cuda, cuda:1 ... (default: CUDA when present)")
+    train.set_defaults(func=_train)
     return parser
 
 

@@ -43,3 +43,13 @@ def test_make_embedded_writes_a_checked_dataset(tmp_path, capsys):
     assert "already exists" in capsys.readouterr().err
     assert main(["data", "make-embedded", "--out", str(tmp_path / "tiny"), "--clips", "5"]) == 2  # too few clips
     assert not (tmp_path / "tiny").exists()
+
+
+def test_train_tokenizer_then_load_from_cache(tmp_path, isolated_cache, capsys):
+    data = tmp_path / "data"
+    assert main(["data", "make-embedded", "--out", str(data), "--clips", "42"]) == 0
+    assert main(["train", "vq", "--profile", "smoke", "--data", str(data), "--device", "cpu"]) == 0
+    assert "trained and cached" in capsys.readouterr().out
+    assert list((isolated_cache / "models" / "vq" / "smoke").iterdir())  # the artefact is in the cache
+    assert main(["train", "vq", "--profile", "smoke", "--data", str(tmp_path / "missing")]) == 2
+    assert "does not exist" in capsys.readouterr().err

@@ -92,3 +92,19 @@ def test_train_tokenizer_checks_feature_dim():
     model = build_tokenizer(vq_config("smoke"))
     with pytest.raises(ValueError, match="251 features"):
         train_tokenizer(model, [np.zeros((40, 251), dtype=np.float32)], progress=False)
+
+
+def test_tokenizer_for_dataset_trains_once_per_dataset(tmp_path):
+    from motionlab.data import MotionDataset
+    from motionlab.data.embedded import write_embedded_dataset
+    from motionlab.tokenizers import tokenizer_for_dataset, vq_config
+    from motionlab.train import is_trained
+
+    ds = MotionDataset(write_embedded_dataset(tmp_path / "data", n_clips=42, seed=0, progress=False))
+    model = tokenizer_for_dataset("vq", ds, "smoke", progress=False)
+    assert is_trained("vq", vq_config("smoke"), "smoke", extra={"data": ds.key})
+    again = tokenizer_for_dataset("vq", ds, "smoke", progress=False)
+    for a, b in zip(model.state_dict().values(), again.state_dict().values()):
+        assert torch.equal(a, b)
+    with pytest.raises(ValueError, match="kind must be one of"):
+        tokenizer_for_dataset("vqgan", ds, "smoke")

@@ -115,3 +115,21 @@ def load_tokenizer(
     """A tokenizer trained earlier by :func:`train_or_load_tokenizer` (``FileNotFoundError`` if there is none)."""
     config = _config_for(kind, profile, config)
     return load_trained(name or kind, config, build_tokenizer, profile, extra={"data": data_key}, device=device)
+
+
+def tokenizer_for_dataset(
+    kind: str, dataset, profile: str | None = None, *, device: str | None = None, progress: bool = True
+) -> VQVAE | RVQVAE:
+    """The book's standard ``"vq"``/``"rvq"`` tokenizer of a :class:`~motionlab.data.MotionDataset`.
+
+    Trained on first use on the normalised train split (validated on val) with the profile's config sized
+    to the dataset's features (263 for HumanML3D, 251 for KIT-ML), cached under the dataset's key: every
+    chapter and the command line that asks for it gets the same model.
+    """
+    if kind not in KINDS:
+        raise ValueError(f"kind must be one of {sorted(KINDS)}, got {kind!r}")
+    config = KINDS[kind](profile, feature_dim=dataset.kind.feature_dim, n_joints=dataset.skeleton.n_joints)
+    return train_or_load_tokenizer(
+        kind, lambda: dataset.normalized("train"), profile, val_clips=lambda: dataset.normalized("val"),
+        config=config, data_key=dataset.key, device=device, progress=progress,
+    )  # fmt: skip
