@@ -1,0 +1,119 @@
+"""Motion files by extension: what the CLI calls for ``--out x.bvh|x.html|x.npy`` and for conversions.
+
+=========  ==================================================  =========================================
+suffix     written by :func:`save_motion`                      read by :func:`load_joints`
+=========  ==================================================  =========================================
+``.bvh``   t2m rig, rotations from inverse kinematics           any BVH through a rig ("cmu", "t2m", dict)
+``.html``  standalone canvas animation (no network)           --
+``.npy``   HumanML3D features ``(T-1, 263)``                   features ``(T, 263)`` or joints ``(T, 22, 3)``
+=========  ==================================================  =========================================
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+
+from ..representation import joints_to_features
+from .bvh_export import save_bvh
+from .bvh_import import bvh_to_joints
+from .common import as_joints, save_npy_atomic
+from .html import save_html_animation
+
+MOTION_SUFFIXES = (".bvh", ".html", ".htm", ".npy")
+
+
+def _suffix(path: Path, allowed: tuple[str, ...], role: str) -> str:
+    suffix = path.suffix.lower()
+    if suffix not in allowed:
+        expected = ", ".join(allowed)
+        raise ValueError(f"{role} {str(path)!r} has an unknown extension {suffix!r}; expected one of {expected}")
+    return suffix
+
+
+def save_motion(
+    motion,
+    path: str | os.PathLike,
+    fps: float = 20.0,
+    title: str | None = None,
+    unit: str = "m",
+    rotation_order: str = "ZYX",
+) -> Path:
+    """Write a motion (joints ``(T, 22, 3)`` in metres or features ``(T, 263)``) in the format of ``path``.
+
+    ``.bvh``: :func:`~motionlab.io.bvh_export.save_bvh` (``unit``, ``rotation_order``); ``.html``/``.htm``:
+    :func:`~motionlab.io.html.save_html_animation` (``title``, default the file name); ``.npy``: HumanML3D
+    features ``(T-1, 263)`` (features are written as given, joints go through ``joints_to_features``).
+    Every file is written through a temporary file and ``os.replace``.
+    """
+    path = Path(path)
+    suffix = _suffix(path, MOTION_SUFFIXES, "output")
+    if suffix == ".bvh":
+        return save_bvh(motion, path, fps=fps, unit=unit, rotation_order=rotation_order)
+    if suffix in (".html", ".htm"):
+        return save_html_animation(motion, path, title=path.stem if title is None else title, fps=fps)
+    return save_npy_atomic(path, _as_features(motion))
+
+
+def _as_features(motion) -> np.ndarray:
+    arr = motion.detach().cpu().numpy() if hasattr(motion, "detach") else np.asarray(motion)
+    joints, sk = as_joints(arr, name="motion")  # validates shape and finiteness
+    if arr.ndim == 2:
+        return arr.astype(np.float32)
+    if joints.shape[0] < 2:
+        raise ValueError("motion needs at least 2 frames to produce features")
+    return joints_to_features(joints, sk).astype(np.float32)
+
+
+def load_joints(
+    path: str | os.PathLike,
+    mapping: str | Mapping[str, str] = "cmu",
+    scale: float | None = None,
+    up: str | None = None,
+    fps: float = 20.0,
+    start: int = 0,
+    end: int | None = None,
+) -> np.ndarray:
+    """Joint positions ``(T, 22, 3)`` in metres from a ``.bvh`` (through the rig ``mapping``) or ``.npy``.
+
+    A ``.npy`` may hold features ``(T, 263)`` (recovered with ``recover_from_ric``) or joints
+    ``(T, 22, 3)``; ``start``/``end`` crop its frames too. The BVH arguments are those of
+    :func:`~motionlab.io.bvh_import.bvh_to_joints`.
+    """
+    path = Path(path)
+    suffix = _suffix(path, (".bvh", ".npy"), "input")
+    if not path.is_file():
+        raise ValueError(f"input {str(path)!r} does not exist")
+    if suffix == ".bvh":
+        return bvh_to_joints(path, mapping=mapping, scale=scale, up=up, fps=fps, start=start, end=end)
+    joints, sk = as_joints(np.load(path, allow_pickle=False), name=f"array in {path.name}")
+    if sk.name != "t2m":
+        raise ValueError(f"{path.name}: only t2m motions (22 joints / 263 features) are supported, got {sk.name}")
+    end = joints.shape[0] if end is None else end
+    if not 0 <= start < end <= joints.shape[0]:
+        raise ValueError(f"crop [start, end) = [{start}, {end}) must lie within the {joints.shape[0]} frames")
+    return joints[start:end]
+
+
+def convert_motion(
+    src: str | os.PathLike,
+    dst: str | os.PathLike,
+    mapping: str | Mapping[str, str] = "cmu",
+    scale: float | None = None,
+    up: str | None = None,
+    fps: float = 20.0,
+    start: int = 0,
+    end: int | None = None,
+    title: str | None = None,
+) -> Path:
+    """Read ``src`` (``.bvh``/``.npy``) with :func:`load_joints` and write ``dst`` with :func:`save_motion`.
+
+    E.g. ``convert_motion("131_02.bvh", "001417.npy", start=10, end=208)`` gives the 197 feature rows of
+    the HumanML3D clip cut from that take.
+    """
+    _suffix(Path(dst), MOTION_SUFFIXES, "output")  # fail before the (slower) reading
+    joints = load_joints(src, mapping=mapping, scale=scale, up=up, fps=fps, start=start, end=end)
+    return save_motion(joints, dst, fps=fps, title=title)

@@ -1,0 +1,179 @@
+"""A motion as one standalone HTML page: a canvas stick figure with play/pause, a frame slider and a view angle.
+
+The page needs no network: the joint positions travel inside it as JSON (``<script type="application/json">``)
+and a few dozen lines of inline JavaScript draw them on a ``<canvas>`` with an orthographic camera::
+
+    x1 =  cos(a) dx + sin(a) dz          # turn about the vertical axis by the azimuth a
+    z1 = -sin(a) dx + cos(a) dz          # depth towards the viewer
+    screen = (x1, dy cos(e) - z1 sin(e))  # tilt by the elevation e (looking slightly down)
+
+with ``d = p - centre``. Positions are stored in metres rounded to 0.1 mm, so a 200-frame clip is ~100 kB.
+"""
+
+from __future__ import annotations
+
+import html as html_lib
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..representation import Skeleton
+from ..viz.skeleton import CHAIN_COLORS
+from .common import as_joints, write_text_atomic
+
+_PAGE = """<!DOCTYPE html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<title>__TITLE__</title>
+<style>
+  body { font-family: system-ui, sans-serif; margin: 1.5em; color: #222; }
+  h1 { font-size: 1.1em; font-weight: 600; }
+  canvas { border: 1px solid #ccc; background: #fbfbfb; display: block; }
+  .controls { margin-top: 0.6em; display: flex; gap: 0.8em; align-items: center; flex-wrap: wrap; }
+  .controls input[type=range] { width: 220px; }
+  #label { font-variant-numeric: tabular-nums; }
+</style>
+</head>
+<body>
+<h1>__TITLE__</h1>
+<canvas id="view" width="520" height="520"></canvas>
+<div class="controls">
+  <button id="play" type="button">Pause</button>
+  <input id="frame" type="range" min="0" max="0" value="0" aria-label="frame">
+  <span id="label"></span>
+  <label>view <input id="azimuth" type="range" min="-180" max="180" value="-35"></label>
+</div>
+<script type="application/json" id="motion-data">__DATA__</script>
+<script>
+(function () {
+  "use strict";
+  var data = JSON.parse(document.getElementById("motion-data").textContent);
+  var frames = data.joints, n = frames.length, fps = data.fps;
+  var canvas = document.getElementById("view"), ctx = canvas.getContext("2d");
+  var slider = document.getElementById("frame"), label = document.getElementById("label");
+  var button = document.getElementById("play"), azimuth = document.getElementById("azimuth");
+  var elevation = 15 * Math.PI / 180;
+  slider.max = String(n - 1);
+
+  // Centre and extent of the whole motion, so the camera stays still while the figure moves.
+  var cx = 0, cz = 0, top = 0, count = 0, radius = 0;
+  function eachJoint(fn) { frames.forEach(function (pose) { pose.forEach(fn); }); }
+  eachJoint(function (p) { cx += p[0]; cz += p[2]; top = Math.max(top, p[1]); count++; });
+  cx /= count; cz /= count;
+  eachJoint(function (p) { radius = Math.max(radius, Math.hypot(p[0] - cx, p[2] - cz)); });
+  radius = Math.max(radius, 0.5) + 0.2;
+  var cy = top / 2;
+  var tall = top * Math.cos(elevation) + 2 * radius * Math.sin(elevation) + 0.4;
+  var scale = Math.min(canvas.width / (2 * radius), canvas.height / tall);
+
+  function project(p) {
+    var a = azimuth.value * Math.PI / 180, dx = p[0] - cx, dy = p[1] - cy, dz = p[2] - cz;
+    var x1 = Math.cos(a) * dx + Math.sin(a) * dz, z1 = -Math.sin(a) * dx + Math.cos(a) * dz;
+    var up = dy * Math.cos(elevation) - z1 * Math.sin(elevation);
+    var depth = z1 * Math.cos(elevation) + dy * Math.sin(elevation);
+    return [canvas.width / 2 + scale * x1, canvas.height / 2 - scale * up, depth];
+  }
+
+  function line(a, b, color, width) {
+    ctx.strokeStyle = color; ctx.lineWidth = width;
+    ctx.beginPath(); ctx.moveTo(a[0], a[1]); ctx.lineTo(b[0], b[1]); ctx.stroke();
+  }
+
+  function drawFloor() {
+    var step = 0.5, r = Math.ceil(radius / step) * step;
+    for (var k = -r; k <= r + 1e-9; k += step) {
+      line(project([cx - r, 0, cz + k]), project([cx + r, 0, cz + k]), "#e2e2e2", 1);
+      line(project([cx + k, 0, cz - r]), project([cx + k, 0, cz + r]), "#e2e2e2", 1);
+    }
+    for (var t = 1; t < n; t++) {  // the root's path on the floor
+      var a = frames[t - 1][0], b = frames[t][0];
+      line(project([a[0], 0, a[2]]), project([b[0], 0, b[2]]), "#c9c9c9", 1.5);
+    }
+  }
+
+  var current = 0, playing = true, last = null, clock = 0;
+
+  function draw() {
+    ctx.clearRect(0, 0, canvas.width, canvas.height);
+    drawFloor();
+    var pts = frames[current].map(project);
+    function depth(i) { return pts[data.bones[i][0]][2] + pts[data.bones[i][1]][2]; }
+    var order = data.bones.map(function (b, i) { return i; });
+    order.sort(function (i, j) { return depth(i) - depth(j); });  // far bones first
+    order.forEach(function (i) { line(pts[data.bones[i][0]], pts[data.bones[i][1]], data.colors[i], 3); });
+    ctx.fillStyle = "#333";
+    pts.forEach(function (p) { ctx.beginPath(); ctx.arc(p[0], p[1], 2.5, 0, 2 * Math.PI); ctx.fill(); });
+    slider.value = String(current);
+    label.textContent = "frame " + (current + 1) + " / " + n + "  (" + (current / fps).toFixed(2) + " s)";
+  }
+
+  function tick(now) {
+    if (playing) {
+      if (last !== null) { clock += (now - last) / 1000; }
+      var step = Math.floor(clock * fps);
+      if (step > 0) { current = (current + step) % n; clock -= step / fps; draw(); }
+      last = now;
+    }
+    window.requestAnimationFrame(tick);
+  }
+
+  function setPlaying(value) {
+    playing = value; last = null; clock = 0;
+    button.textContent = playing ? "Pause" : "Play";
+  }
+  button.addEventListener("click", function () { setPlaying(!playing); });
+  slider.addEventListener("input", function () { setPlaying(false); current = Number(slider.value); draw(); });
+  azimuth.addEventListener("input", draw);
+  document.addEventListener("keydown", function (e) {
+    if (e.key === " ") { e.preventDefault(); setPlaying(!playing); }
+  });
+  draw();
+  window.requestAnimationFrame(tick);
+})();
+</script>
+</body>
+</html>
+"""
+
+
+def _bones_and_colors(sk: Skeleton) -> tuple[list[list[int]], list[str]]:
+    bones, colors = [], []
+    for k, chain in enumerate(sk.chains):
+        for a, b in zip(chain[:-1], chain[1:]):
+            bones.append([a, b])
+            colors.append(CHAIN_COLORS[k % len(CHAIN_COLORS)])
+    return bones, colors
+
+
+def html_animation(joints, title: str = "motion", fps: float = 20.0, skeleton: str | Skeleton | None = None) -> str:
+    """The text of a standalone HTML page animating ``joints`` ``(T, J, 3)`` (or features ``(T, 263|251)``)."""
+    positions, sk = as_joints(joints, skeleton, name="joints")
+    if not isinstance(title, str):
+        raise ValueError(f"title must be a str, got {type(title).__name__}")
+    if not (np.isfinite(fps) and fps > 0):
+        raise ValueError(f"fps must be positive, got {fps}")
+    metres = np.round(positions * sk.meters_per_unit, 4)  # (T, J, 3)
+    bones, colors = _bones_and_colors(sk)
+    payload = {"skeleton": sk.name, "fps": float(fps), "joint_names": list(sk.joint_names), "bones": bones,
+               "colors": colors, "joints": metres.tolist()}  # fmt: skip
+    # "<" never appears raw inside the <script> element, so no data can close it early.
+    data = json.dumps(payload, separators=(",", ":")).replace("<", "\\u003c")
+    # Data first, so a title that happens to contain "__DATA__" stays text.
+    return _PAGE.replace("__DATA__", data).replace("__TITLE__", html_lib.escape(title))
+
+
+def save_html_animation(
+    joints,
+    path: str | os.PathLike,
+    title: str = "motion",
+    fps: float = 20.0,
+    skeleton: str | Skeleton | None = None,
+) -> Path:
+    """Write :func:`html_animation` to ``path`` (``.html``/``.htm``) atomically; returns the path."""
+    path = Path(path)
+    if path.suffix.lower() not in (".html", ".htm"):
+        raise ValueError(f"path must end in .html or .htm, got {str(path)!r}")
+    return write_text_atomic(path, html_animation(joints, title, fps, skeleton))
