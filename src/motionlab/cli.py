@@ -54,6 +54,18 @@ def _train(args: argparse.Namespace) -> int:
     return 0
 
 
+def _convert(args: argparse.Namespace) -> int:
+    from .io import convert_motion
+
+    if args.dst.exists() and not args.force:
+        print(f"error: {args.dst} exists; pass --force to replace it", file=sys.stderr)
+        return 2
+    path = convert_motion(args.src, args.dst, mapping=args.mapping, scale=args.scale, up=args.up,
+                          start=args.start, end=args.end)  # fmt: skip
+    print(path)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="motionlab", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -80,6 +92,19 @@ def build_parser() -> argparse.ArgumentParser:
     train.add_argument("--data", default=None, help="a HumanML3D/KIT-ML folder (default: the embedded dataset)")
     train.add_argument("--device", default=None, help="cpu, cuda, cuda:1 ... (default: CUDA when present)")
     train.set_defaults(func=_train)
+
+    convert = sub.add_parser("convert", help="convert motion between .bvh, .npy (HumanML3D features) and .html",
+                             description="Mocap (BVH) becomes HumanML3D features on the t2m skeleton at 20 fps; "
+                                         "features or joints become BVH or a standalone HTML animation.")  # fmt: skip
+    convert.add_argument("src", type=Path, help="input .bvh or .npy (features (T, 263) or joints (T, 22, 3))")
+    convert.add_argument("dst", type=Path, help="output .npy, .bvh or .html")
+    convert.add_argument("--mapping", default="cmu", choices=["cmu", "t2m"], help="joint-name mapping of a BVH input")
+    convert.add_argument("--scale", type=float, default=None, help="BVH units to metres (default: the rig's)")
+    convert.add_argument("--up", choices=["y", "z"], default=None, help="up axis of the BVH (default: y)")
+    convert.add_argument("--start", type=int, default=0, help="first frame to keep, at 20 fps")
+    convert.add_argument("--end", type=int, default=None, help="frame to stop before, at 20 fps")
+    convert.add_argument("--force", action="store_true", help="replace an existing output file")
+    convert.set_defaults(func=_convert)
     return parser
 
 

@@ -53,3 +53,28 @@ def test_train_tokenizer_then_load_from_cache(tmp_path, isolated_cache, capsys):
     assert list((isolated_cache / "models" / "vq" / "smoke").iterdir())  # the artefact is in the cache
     assert main(["train", "vq", "--profile", "smoke", "--data", str(tmp_path / "missing")]) == 2
     assert "does not exist" in capsys.readouterr().err
+
+
+def test_convert_features_to_bvh_html_and_back(tmp_path, capsys):
+    from motionlab.data.embedded import generate_clip
+    from motionlab.representation import joints_to_features
+
+    feats = joints_to_features(generate_clip("wave", np.random.default_rng(0)).joints).astype(np.float32)
+    np.save(tmp_path / "wave.npy", feats)
+    assert main(["convert", str(tmp_path / "wave.npy"), str(tmp_path / "wave.bvh")]) == 0
+    assert main(["convert", str(tmp_path / "wave.npy"), str(tmp_path / "wave.html")]) == 0
+    assert main(["convert", str(tmp_path / "wave.bvh"), str(tmp_path / "back.npy"), "--mapping", "t2m"]) == 0
+    back = np.load(tmp_path / "back.npy")
+    assert back.shape[1] == 263 and abs(len(back) - len(feats)) <= 1
+    assert "http" not in (tmp_path / "wave.html").read_text().lower().replace("http-equiv", "")
+    assert main(["convert", str(tmp_path / "wave.npy"), str(tmp_path / "wave.bvh")]) == 2  # exists
+    assert main(["convert", str(tmp_path / "wave.npy"), str(tmp_path / "wave.gif")]) == 2
+    assert "unknown extension" in capsys.readouterr().err
+
+
+# The CMU takes: "The data used in this project was obtained from mocap.cs.cmu.edu.
+# The database was created with funding from NSF EIA-0196217." (see ../shared/data/cmu-bvh/README.md)
+def test_convert_a_cmu_take(shared_data, tmp_path):
+    out, take = tmp_path / "001417.npy", shared_data / "cmu-bvh" / "131_02.bvh"
+    assert main(["convert", str(take), str(out), "--start", "10", "--end", "208"]) == 0
+    assert np.load(out).shape == (197, 263)
