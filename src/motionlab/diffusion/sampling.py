@@ -1,0 +1,180 @@
+"""Reverse-process samplers: ancestral (every step), fast (skipping steps), guidance and truncation.
+
+One step from t to s < t (:func:`denoise_step`):
+
+1. log p_θ(x_0 | x_t) from the network, with classifier-free guidance (:func:`classifier_free_guidance`);
+2. truncate it to its most likely codes (top-p / top-k, :func:`truncate`), as VQ-Diffusion does;
+3. log p_θ(x_s | x_t) = log Σ_{x0} q(x_s | x_t, x0) p_θ(x0 | x_t) with q(x_t | x_s) = Q_{s+1}⋯Q_t — the
+   exact posterior *jump*, so skipping steps needs no approximation (s = 0 samples x_0 directly);
+4. draw x_s by Gumbel-max.
+
+:func:`sample` runs it from all-mask over a grid T = t_0 > t_1 > … > 0. Two-Phase Sampling can call
+:func:`denoise_step` itself: jointly over concatenated segments (``cross_mask``) for t > T_s, then per segment.
+
+**Guidance scale.** M2D2M Eq. 9 writes log p = (s + 1)·log p(·|y) − s·log p(·|∅) = log p_c + s·(log p_c − log p_u),
+so s = 0 is the plain conditional model, and the paper's s = 4 (single motions) / s = 2 (multi-motion)
+are *extra* weight on the text. VQ-Diffusion's code writes log p_u + g·(log p_c − log p_u): the same thing
+with g = 1 + s (its default g = 1 is "off"). ``guidance_scale`` here is M2D2M's s; the result is
+renormalised. By default it is applied to p_θ(x_0 | x_t), as VQ-Diffusion's code does; ``guidance_on =
+"posterior"`` applies it to p_θ(x_{t-1} | x_t), the distribution Eq. 9 literally names.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import torch
+from torch import Tensor, nn
+
+from motionlab.diffusion.posterior import LOG_FLOOR, gumbel_sample, log_p_posterior
+from motionlab.diffusion.transitions import Transitions
+
+GUIDANCE_SPACES = ("x0", "posterior")
+
+
+def timestep_grid(T: int, num_steps: int | None = None) -> list[int]:
+    """Descending steps [T, …, 0] with ``num_steps`` jumps (None: all T, i.e. ancestral sampling)."""
+    if num_steps is None:
+        num_steps = T
+    if not isinstance(num_steps, int) or not 1 <= num_steps <= T:
+        raise ValueError(f"num_steps must be an int in [1, T={T}], got {num_steps!r}")
+    grid = torch.linspace(T, 0, num_steps + 1, dtype=torch.float64).round().long().tolist()
+    return sorted(set(grid), reverse=True)
+
+
+def classifier_free_guidance(log_p_cond: Tensor, log_p_uncond: Tensor, scale: float) -> Tensor:
+    """M2D2M Eq. 9: log p ∝ log p_c + s·(log p_c − log p_u), renormalised (s = 0: the conditional model)."""
+    guided = log_p_cond + scale * (log_p_cond - log_p_uncond)
+    return (guided - guided.logsumexp(dim=-1, keepdim=True)).clamp_min(LOG_FLOOR)
+
+
+def truncate(log_p: Tensor, top_p: float | None = None, top_k: int | None = None) -> Tensor:
+    """Keep the most likely classes of each distribution and renormalise; the rest get ``LOG_FLOOR``.
+
+    top-p (nucleus, VQ-Diffusion's "top{r}r"): sorted by probability, class i is kept when the mass of the
+    classes before it is < p, i.e. the smallest prefix holding at least p (never empty).
+    top-k: the k most likely classes. Both may be given (the intersection is kept).
+    """
+    if top_p is None and top_k is None:
+        return log_p
+    keep = torch.ones_like(log_p, dtype=torch.bool)
+    if top_p is not None:
+        if not 0.0 < top_p <= 1.0:
+            raise ValueError(f"top_p must be in (0, 1], got {top_p}")
+        sorted_lp, order = log_p.sort(dim=-1, descending=True)
+        before = sorted_lp.exp().cumsum(dim=-1) - sorted_lp.exp()  # mass strictly before each sorted class
+        keep_sorted = before < top_p
+        keep_sorted[..., 0] = True
+        keep = keep & torch.zeros_like(keep).scatter(-1, order, keep_sorted)
+    if top_k is not None:
+        if not isinstance(top_k, int) or not 1 <= top_k <= log_p.shape[-1]:
+            raise ValueError(f"top_k must be an int in [1, {log_p.shape[-1]}], got {top_k!r}")
+        kth = log_p.topk(top_k, dim=-1).values[..., -1:]
+        keep = keep & (log_p >= kth)
+    kept = log_p.masked_fill(~keep, float("-inf"))
+    return (kept - kept.logsumexp(dim=-1, keepdim=True)).clamp_min(LOG_FLOOR)
+
+
+def _model_log_p_x0(
+    model: nn.Module, x_t: Tensor, t: int, text: Tensor, guided: bool, **kw
+) -> tuple[Tensor, Tensor | None]:
+    """Conditional (and, if guided, unconditional) log p_θ(x_0 | x_t) from one batched network call."""
+    B = x_t.shape[0]
+    steps = torch.full((B,), t, dtype=torch.long, device=x_t.device)
+    if not guided:
+        return model(x_t, steps, text, **kw), None
+    double = {k: (torch.cat([v, v]) if torch.is_tensor(v) else v) for k, v in kw.items()}
+    drop = torch.cat([torch.zeros(B, dtype=torch.bool), torch.ones(B, dtype=torch.bool)]).to(x_t.device)
+    out = model(torch.cat([x_t, x_t]), torch.cat([steps, steps]), torch.cat([text, text]), drop_text=drop, **double)
+    return out[:B], out[B:]
+
+
+@torch.no_grad()
+def denoise_step(
+    model: nn.Module,
+    transitions: Transitions,
+    x_t: Tensor,
+    t: int,
+    t_prev: int,
+    text: Tensor,
+    text_padding_mask: Tensor | None = None,
+    *,
+    generator: torch.Generator,
+    guidance_scale: float = 0.0,
+    guidance_on: str = "x0",
+    top_p: float | None = None,
+    top_k: int | None = None,
+    padding_mask: Tensor | None = None,
+    cross_mask: Tensor | None = None,
+    self_mask: Tensor | None = None,
+) -> Tensor:
+    """One reverse jump x_t -> x_{t_prev} (0 <= t_prev < t <= T): (B, L) ids -> (B, L) ids.
+
+    Padded positions (``padding_mask`` True) stay masked. At ``t_prev = 0`` the result holds codes only.
+    """
+    if not (0 <= t_prev < t <= transitions.T):
+        raise ValueError(f"need 0 <= t_prev < t <= T={transitions.T}, got t={t}, t_prev={t_prev}")
+    if guidance_on not in GUIDANCE_SPACES:
+        raise ValueError(f"guidance_on must be one of {GUIDANCE_SPACES}, got {guidance_on!r}")
+    kw = dict(text_padding_mask=text_padding_mask, padding_mask=padding_mask, cross_mask=cross_mask,
+              self_mask=self_mask)  # fmt: skip
+    guided = guidance_scale != 0.0
+    log_c, log_u = _model_log_p_x0(model, x_t, t, text, guided, **kw)
+    if guided and guidance_on == "x0":
+        log_c, log_u = classifier_free_guidance(log_c, log_u, guidance_scale), None
+    branches = [truncate(lp, top_p, top_k) for lp in (log_c, log_u) if lp is not None]
+    if t_prev > 0:
+        dev = x_t.device
+        step = transitions.interval(t_prev, t).to(dev)
+        cum_prev, cum_t = transitions.cumulative[t_prev].to(dev), transitions.cumulative[t].to(dev)
+        branches = [log_p_posterior(lp, x_t, step, cum_prev, cum_t) for lp in branches]
+    log_prev = branches[0] if len(branches) == 1 else classifier_free_guidance(*branches, guidance_scale)
+    x_prev = gumbel_sample(log_prev, generator)
+    if padding_mask is not None:
+        x_prev = x_prev.masked_fill(padding_mask, transitions.mask_id)
+    return x_prev
+
+
+@torch.no_grad()
+def sample(
+    model: nn.Module,
+    transitions: Transitions,
+    text: Tensor,
+    text_padding_mask: Tensor | None = None,
+    *,
+    lengths: Sequence[int] | Tensor,
+    generator: torch.Generator,
+    num_steps: int | None = None,
+    timesteps: Sequence[int] | None = None,
+    guidance_scale: float = 0.0,
+    guidance_on: str = "x0",
+    top_p: float | None = None,
+    top_k: int | None = None,
+    pad_id: int = -1,
+) -> Tensor:
+    """Generate token ids from all-mask.
+
+    Args:
+        text: (B, S, text_dim) text token features, ``text_padding_mask`` (B, S) True at padding.
+        lengths: B token counts; the output is (B, max(lengths)) with ``pad_id`` beyond each length.
+        num_steps: jumps on an even grid (None: all T steps, ancestral); or give ``timesteps`` explicitly,
+            a descending list from T to 0.
+        guidance_scale: M2D2M's s (0 = conditional model; the paper uses 4 for single motions).
+        top_p / top_k: truncation of p_θ(x_0 | x_t) at every step (VQ-Diffusion's default is top_p = 0.85).
+    """
+    lengths = torch.as_tensor(lengths, dtype=torch.long).flatten()
+    B = text.shape[0] if torch.is_tensor(text) and text.ndim == 3 else -1
+    if lengths.numel() != B or lengths.min() < 1:
+        raise ValueError(f"lengths must hold B={B} positive counts (text: (B, S, d)), got {lengths.tolist()}")
+    grid = list(timesteps) if timesteps is not None else timestep_grid(transitions.T, num_steps)
+    if grid[0] != transitions.T or grid[-1] != 0 or any(a <= b for a, b in zip(grid, grid[1:], strict=False)):
+        raise ValueError(f"timesteps must descend strictly from T={transitions.T} to 0, got {grid}")
+    dev = text.device
+    L = int(lengths.max())
+    padding_mask = torch.arange(L, device=dev)[None, :] >= lengths.to(dev)[:, None]  # (B, L)
+    x = torch.full((B, L), transitions.mask_id, dtype=torch.long, device=dev)
+    for t, t_prev in zip(grid[:-1], grid[1:], strict=True):
+        x = denoise_step(model, transitions, x, t, t_prev, text, text_padding_mask, generator=generator,
+                         guidance_scale=guidance_scale, guidance_on=guidance_on, top_p=top_p, top_k=top_k,
+                         padding_mask=padding_mask)  # fmt: skip
+    return x.masked_fill(padding_mask, pad_id)

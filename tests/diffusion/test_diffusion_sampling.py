@@ -1,0 +1,142 @@
+"""Samplers: grids, truncation mass, guidance, fast sampling shapes, padding, determinism."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+
+from motionlab.diffusion import (
+    DenoisingTransformer,
+    build_transitions,
+    denoise_step,
+    get_schedule,
+    sample,
+    timestep_grid,
+    transformer_config,
+    truncate,
+)
+
+K, D_TEXT, T = 8, 12, 10
+
+
+@pytest.fixture(autouse=True)
+def _one_thread():
+    n = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(n)
+
+
+@pytest.fixture(scope="module")
+def setup():
+    cfg = transformer_config("smoke", num_codes=K, text_dim=D_TEXT, timesteps=T)
+    model = DenoisingTransformer(cfg, seed=0).eval()
+    cb = torch.randn(K, 3, generator=torch.Generator().manual_seed(1))
+    tr = build_transitions(get_schedule(T=T), codebook=cb, eta=0.5)
+    text = torch.randn(3, 4, D_TEXT, generator=torch.Generator().manual_seed(2))
+    return model, tr, text
+
+
+def test_timestep_grid():
+    assert timestep_grid(10) == list(range(10, -1, -1))
+    assert timestep_grid(100, 10) == list(range(100, -1, -10))
+    grid = timestep_grid(100, 7)
+    assert grid[0] == 100 and grid[-1] == 0 and len(grid) == 8 and grid == sorted(grid, reverse=True)
+    with pytest.raises(ValueError, match="num_steps"):
+        timestep_grid(10, 11)
+
+
+def test_top_p_keeps_the_smallest_prefix_with_enough_mass():
+    probs = torch.tensor([[0.5, 0.05, 0.3, 0.15], [0.97, 0.01, 0.01, 0.01]])
+    out = truncate(probs.log(), top_p=0.85).exp()
+    # Row 0: 0.5 + 0.3 = 0.8 < 0.85, so 0.15 joins; 0.05 goes. Row 1: the top class alone holds 0.97.
+    torch.testing.assert_close(out[0], torch.tensor([0.5, 0.0, 0.3, 0.15]) / 0.95, atol=1e-6, rtol=0)
+    torch.testing.assert_close(out[1], torch.tensor([1.0, 0.0, 0.0, 0.0]), atol=1e-6, rtol=0)
+    g = torch.Generator().manual_seed(0)
+    log_p = torch.log_softmax(2 * torch.randn(50, 20, generator=g), -1)
+    for p in (0.3, 0.85, 0.99):
+        kept = truncate(log_p, top_p=p).exp() > 1e-20
+        mass = (log_p.exp() * kept).sum(-1)
+        assert (mass >= p - 1e-6).all()
+        smallest_kept = torch.where(kept, log_p.exp(), torch.inf).min(-1).values
+        assert (mass - smallest_kept < p).all()  # dropping the least likely kept class would fall short
+    assert torch.equal(truncate(log_p), log_p)
+
+
+def test_top_k_and_both():
+    log_p = torch.log_softmax(torch.tensor([[3.0, 1.0, 2.0, 0.0, -1.0]]), -1)
+    out = truncate(log_p, top_k=2).exp()
+    assert (out > 1e-20).sum() == 2 and out[0, [0, 2]].sum().item() == pytest.approx(1.0)
+    both = truncate(log_p, top_p=0.5, top_k=3).exp()
+    assert (both > 1e-20).sum() == 1
+    with pytest.raises(ValueError, match="top_k"):
+        truncate(log_p, top_k=0)
+    with pytest.raises(ValueError, match="top_p"):
+        truncate(log_p, top_p=1.5)
+
+
+@pytest.mark.parametrize("num_steps", [None, 3, 1])
+def test_sampling_shapes_and_padding(setup, num_steps):
+    model, tr, text = setup
+    ids = sample(model, tr, text, lengths=[5, 9, 2], generator=torch.Generator().manual_seed(0),
+                 num_steps=num_steps, guidance_scale=2.0, top_p=0.9)  # fmt: skip
+    assert ids.shape == (3, 9) and ids.dtype == torch.long
+    valid = torch.arange(9)[None] < torch.tensor([5, 9, 2])[:, None]
+    assert ((ids >= 0) & (ids < K))[valid].all()
+    assert (ids[~valid] == -1).all()
+
+
+def test_sampling_is_deterministic_under_a_seed(setup):
+    model, tr, text = setup
+
+    def run(seed, **kw):
+        g = torch.Generator().manual_seed(seed)
+        return sample(model, tr, text, lengths=[6, 6, 6], generator=g, num_steps=4, **kw)
+
+    assert torch.equal(run(0), run(0))
+    assert not torch.equal(run(0), run(1))
+    assert torch.equal(run(3, guidance_scale=2.0, top_k=3), run(3, guidance_scale=2.0, top_k=3))
+
+
+def test_neutral_guidance_matches_the_conditional_sampler(setup):
+    """s = 0 needs no unconditional pass; both guidance spaces then coincide with it."""
+    model, tr, text = setup
+    x = torch.full((3, 6), K)
+    draws = [denoise_step(model, tr, x, T, T - 3, text, generator=torch.Generator().manual_seed(0),
+                          guidance_scale=0.0, guidance_on=space) for space in ("x0", "posterior")]  # fmt: skip
+    assert torch.equal(draws[0], draws[1])
+    guided = [denoise_step(model, tr, x, T, 0, text, generator=torch.Generator().manual_seed(s), guidance_scale=5.0)
+              for s in range(4)]  # fmt: skip
+    plain = [denoise_step(model, tr, x, T, 0, text, generator=torch.Generator().manual_seed(s)) for s in range(4)]
+    assert any(not torch.equal(a, b) for a, b in zip(guided, plain, strict=True))
+
+
+def test_denoise_step_contract(setup):
+    model, tr, text = setup
+    x = torch.full((3, 6), K)
+    pad = torch.zeros(3, 6, dtype=torch.bool)
+    pad[0, 4:] = True
+    g = torch.Generator().manual_seed(0)
+    mid = denoise_step(model, tr, x, T, 5, text, generator=g, padding_mask=pad)
+    assert (mid[pad] == K).all() and mid.shape == (3, 6)
+    last = denoise_step(model, tr, mid, 5, 0, text, generator=g, padding_mask=pad)
+    assert (last[~pad] < K).all()  # x_0 holds codes only
+    with pytest.raises(ValueError, match="t_prev"):
+        denoise_step(model, tr, x, 3, 3, text, generator=g)
+    with pytest.raises(ValueError, match="guidance_on"):
+        denoise_step(model, tr, x, 3, 2, text, generator=g, guidance_on="z")
+    with pytest.raises(ValueError, match="generator"):
+        denoise_step(model, tr, x, 3, 2, text, generator=None)
+
+
+def test_bad_sampling_inputs(setup):
+    model, tr, text = setup
+    g = torch.Generator().manual_seed(0)
+    with pytest.raises(ValueError, match="lengths"):
+        sample(model, tr, text, lengths=[3, 3], generator=g)
+    with pytest.raises(ValueError, match="lengths"):
+        sample(model, tr, text, lengths=[3, 0, 2], generator=g)
+    with pytest.raises(ValueError, match="timesteps"):
+        sample(model, tr, text, lengths=[3, 3, 3], generator=g, timesteps=[10, 5, 5, 0])
+    with pytest.raises(ValueError, match="timesteps"):
+        sample(model, tr, text, lengths=[3, 3, 3], generator=g, timesteps=[9, 0])
