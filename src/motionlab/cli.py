@@ -44,13 +44,16 @@ def _train(args: argparse.Namespace) -> int:
     from .data import load_dataset
     from .profiles import get_profile
     from .tokenizers import tokenizer_for_dataset
+    from .train.distributed import init_distributed
 
+    ctx = init_distributed()  # a no-op unless launched by torchrun
     profile = get_profile(args.profile)
     dataset = load_dataset(args.data, profile=profile)
     trainers = {"vq": tokenizer_for_dataset, "rvq": tokenizer_for_dataset}
     model = trainers[args.model](args.model, dataset, profile, device=args.device)
     n_params = sum(p.numel() for p in model.parameters())
-    print(f"{args.model} ({profile}, data {dataset.key}): {n_params / 1e6:.2f} M parameters, trained and cached")
+    if ctx.is_main:
+        print(f"{args.model} ({profile}, data {dataset.key}): {n_params / 1e6:.2f} M parameters, trained and cached")
     return 0
 
 

@@ -26,6 +26,7 @@ from ..paths import cache_path
 from ..profiles import get_profile
 from .checkpoint import load_weights, save_weights
 from .device import get_device
+from .distributed import barrier, current_context
 
 BuildFn = Callable[[Any], nn.Module]
 TrainFn = Callable[[nn.Module, Path], Any]
@@ -107,7 +108,15 @@ def train_or_load(
     work = final.with_name(final.name + ".work")
     model = build_fn(config)
     result = train_fn(model, work)
+    ctx = current_context()
+    if ctx.is_main:  # under torchrun every rank trained the same weights; one writes them
+        _publish(final, work, model, result, name, config, profile, extra)
+    barrier(ctx)
+    return model.to(get_device(device)).eval()
 
+
+def _publish(final: Path, work: Path, model: nn.Module, result: Any, name: str, config: Any, profile, extra) -> None:
+    """Write the finished artefact under a temporary name, rename it into place, drop the checkpoints."""
     tmp = final.with_name(f".{final.name}.tmp-{uuid.uuid4().hex[:8]}")
     tmp.mkdir(parents=True)
     try:
@@ -123,4 +132,3 @@ def train_or_load(
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     shutil.rmtree(work, ignore_errors=True)
-    return model.to(get_device(device)).eval()
