@@ -1,0 +1,263 @@
+"""Scoring multi-motions as M2D2M Tables 1 and 4–6 do: the individual actions and the transitions.
+
+* **Individual motion**: each generated motion is cut at its boundaries and every action is scored against
+  its own caption like a single motion: R-Top3, FID (against the real single-action clips), MM-Dist and
+  Diversity, all in the evaluator's embedding (any object with ``embed_motions(list of (T, D) raw
+  features)`` and ``embed_texts(captions)``, e.g. ``motionlab.metrics.evaluator_training``'s evaluator).
+* **Transition**: the ``window`` frames (40) around each boundary
+  (:func:`motionlab.metrics.transition_windows`: 20 before, 20 from the boundary on, shifted inside the
+  sequence near its ends): FID against *real windows of the same length* cut from single-action clips,
+  Diversity, and Jerk (Eq. 10, :func:`motionlab.metrics.transition_log_jerk`, time in frames, on the joints
+  recovered from the whole motion).
+* **References**: "ground truth (single)" scores the real clips of the test set as if generated and real
+  windows as transitions; "ground truth (concat)" is the Jerk of the real clips played back to back
+  (the only number the paper reports for it).
+
+One evaluation gives a dict of floats (:data:`METRICS`); repeat it (new seeds) and :func:`summarize` gives
+mean ± 95 % half-width per metric (:func:`motionlab.metrics.mean_ci`); :func:`format_table` prints rows.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from motionlab.metrics import diversity, fid, log_jerk_batch, mean_ci, retrieval_metrics, transition_log_jerk
+from motionlab.metrics import transition_windows as _windows
+from motionlab.multimotion.stitch import split_segments
+from motionlab.representation import recover_from_ric
+
+METRICS = ("r_top3", "fid", "mm_dist", "diversity", "transition_fid", "transition_diversity", "jerk")
+DEFAULT_WINDOW = 40
+
+
+def _parts(motion) -> tuple[np.ndarray, list[int]]:
+    """A MultiMotion-like object (``.features``, ``.boundaries``) or a ``(features, boundaries)`` pair."""
+    if hasattr(motion, "features") and hasattr(motion, "boundaries"):
+        return np.asarray(motion.features), list(motion.boundaries)
+    features, boundaries = motion
+    return np.asarray(features), list(boundaries)
+
+
+def _rng(rng) -> np.random.Generator:
+    if isinstance(rng, (int, np.integer)):
+        return np.random.default_rng(int(rng))
+    if not isinstance(rng, np.random.Generator):
+        raise ValueError(f"rng must be a numpy Generator or an int seed, got {type(rng).__name__}")
+    return rng
+
+
+# ---------------------------------------------------------------------------------------------- windows
+
+
+def transition_feature_windows(features: np.ndarray, boundaries: Sequence[int], window: int = DEFAULT_WINDOW):
+    """The feature rows of each transition window (``transition_windows`` ranges) -> list of (window, D)."""
+    return [features[a:b] for a, b in _windows(len(features), boundaries, window)]
+
+
+def transition_jerk(features: np.ndarray, boundaries: Sequence[int], window: int = DEFAULT_WINDOW) -> np.ndarray:
+    """Eq. 10 (frames) around every boundary of one motion, on joints recovered from all its features."""
+    return transition_log_jerk(recover_from_ric(np.asarray(features, np.float32)), boundaries, window)
+
+
+def real_windows(clips: Sequence[np.ndarray], window: int, rng, n: int | None = None) -> list[np.ndarray]:
+    """``n`` windows of ``window`` frames at random starts in random real clips (one per clip by default).
+
+    Clips shorter than ``window`` are skipped.
+    """
+    rng = _rng(rng)
+    long_enough = [np.asarray(c) for c in clips if len(c) >= window]
+    if not long_enough:
+        raise ValueError(f"no clip has the {window} frames a window needs")
+    which = np.arange(len(long_enough)) if n is None else rng.integers(len(long_enough), size=n)
+    out = []
+    for i in which:
+        start = int(rng.integers(len(long_enough[i]) - window + 1))
+        out.append(long_enough[i][start : start + window])
+    return out
+
+
+def transition_profile(motions: Sequence, window: int = DEFAULT_WINDOW) -> dict[str, np.ndarray]:
+    """Mean joint speed and jerk magnitude per frame around the boundaries (M2D2M Fig. 5), time in frames.
+
+    Only boundaries with ``window / 2`` frames on both sides count. Returns ``frames`` (the offset of each
+    speed sample from the boundary), ``speed`` (window − 1,) and ``jerk`` (window − 3,), means over joints
+    and transitions, and ``n`` (the number of transitions).
+    """
+    half, speeds, jerks = window // 2, [], []
+    for motion in motions:
+        features, boundaries = _parts(motion)
+        joints = recover_from_ric(np.asarray(features, np.float32))  # (T, J, 3)
+        for b in boundaries:
+            if b - half >= 0 and b + half <= len(joints):
+                w = joints[b - half : b + half]
+                speeds.append(np.linalg.norm(np.diff(w, axis=0), axis=-1).mean(-1))
+                jerks.append(np.linalg.norm(np.diff(w, n=3, axis=0), axis=-1).mean(-1))
+    if not speeds:
+        raise ValueError(f"no boundary has {half} frames on both sides")
+    return {"frames": np.arange(-half, half - 1), "speed": np.mean(speeds, 0), "jerk": np.mean(jerks, 0),
+            "n": np.array(len(speeds))}  # fmt: skip
+
+
+# ---------------------------------------------------------------------------------------------- evaluation
+
+
+@dataclass
+class MultiMotionReference:
+    """Real embeddings the FIDs compare against: single-action clips and windows cut from them."""
+
+    segment_embeddings: np.ndarray  # (N, d)
+    window_embeddings: np.ndarray  # (N_w, d)
+    window: int
+
+
+def build_reference(evaluator, real_clips: Sequence[np.ndarray], *, rng, window: int = DEFAULT_WINDOW,
+                    n_windows: int | None = None) -> MultiMotionReference:  # fmt: skip
+    """Embed the real single-action clips (raw features) and ``n_windows`` random real windows of them."""
+    clips = [np.asarray(getattr(c, "features", c)) for c in real_clips]
+    if len(clips) < 2:
+        raise ValueError(f"need at least 2 real clips, got {len(clips)}")
+    windows = real_windows(clips, window, rng, n_windows)
+    return MultiMotionReference(evaluator.embed_motions(clips), evaluator.embed_motions(windows), window)
+
+
+def _individual(evaluator, segments, captions, reference, rng, batch_size, diversity_pairs) -> dict[str, float]:
+    if len(segments) != len(captions):
+        raise ValueError(f"{len(segments)} action segments but {len(captions)} captions")
+    if len(segments) < 3:
+        raise ValueError(f"need at least 3 action segments for R-Top3, got {len(segments)}")
+    motion = evaluator.embed_motions(segments)
+    text = evaluator.embed_texts(list(captions))
+    scores = retrieval_metrics(text, motion, batch_size=min(batch_size, len(segments)), top_k=3, rng=rng)
+    return {"r_top3": float(scores.r_precision[2]), "fid": fid(reference.segment_embeddings, motion),
+            "mm_dist": scores.mm_dist, "diversity": diversity(motion, rng, n_pairs=diversity_pairs)}  # fmt: skip
+
+
+def _transitions(evaluator, windows, jerks, reference, rng, diversity_pairs) -> dict[str, float]:
+    if len(windows) < 2:
+        raise ValueError(f"need at least 2 transitions, got {len(windows)}")
+    emb = evaluator.embed_motions(windows)
+    jerks = np.asarray(jerks, dtype=np.float64)
+    return {"transition_fid": fid(reference.window_embeddings, emb),
+            "transition_diversity": diversity(emb, rng, n_pairs=diversity_pairs),
+            "jerk": float(np.nanmean(jerks)) if np.isfinite(jerks).any() else float("nan")}  # fmt: skip
+
+
+def evaluate_multimotion(
+    evaluator,
+    motions: Sequence,
+    captions: Sequence[Sequence],
+    reference: MultiMotionReference,
+    *,
+    rng,
+    batch_size: int = 32,
+    diversity_pairs: int = 300,
+) -> dict[str, float]:
+    """One evaluation of generated multi-motions -> {metric: value} over :data:`METRICS`.
+
+    ``motions[i]`` (``.features``/``.boundaries`` or a pair) was generated for ``captions[i]`` (one caption
+    per action; ``Caption`` objects or what the evaluator's ``embed_texts`` takes).
+    """
+    rng = _rng(rng)
+    if len(motions) == 0 or len(motions) != len(captions):
+        raise ValueError(f"motions and captions must be non-empty and match, got {len(motions)} and {len(captions)}")
+    segments, flat_captions, windows, jerks = [], [], [], []
+    for i, (motion, caps) in enumerate(zip(motions, captions, strict=True)):
+        features, boundaries = _parts(motion)
+        if len(boundaries) + 1 != len(caps):
+            raise ValueError(f"motion {i} has {len(boundaries) + 1} actions but {len(caps)} captions")
+        segments += split_segments(features, boundaries)
+        flat_captions += list(caps)
+        if boundaries:
+            windows += transition_feature_windows(features, boundaries, reference.window)
+            jerks += transition_jerk(features, boundaries, reference.window).tolist()
+    out = _individual(evaluator, segments, flat_captions, reference, rng, batch_size, diversity_pairs)
+    return {**out, **_transitions(evaluator, windows, jerks, reference, rng, diversity_pairs)}
+
+
+def evaluate_ground_truth_single(evaluator, instances: Sequence, reference: MultiMotionReference, *, rng,
+                                 batch_size: int = 32, diversity_pairs: int = 300) -> dict[str, float]:  # fmt: skip
+    """The "ground truth (single)" row: the test set's real clips as the actions and fresh real windows as the
+    transitions (as many as the instances have boundaries), scored like :func:`evaluate_multimotion`."""
+    rng = _rng(rng)
+    segments = [s for inst in instances for s in inst.real_segments]
+    captions = [c for inst in instances for c in inst.captions]
+    out = _individual(evaluator, segments, captions, reference, rng, batch_size, diversity_pairs)
+    n = sum(len(inst.lengths) - 1 for inst in instances)
+    windows = real_windows(segments, reference.window, rng, n=max(n, 2))
+    jerks = log_jerk_batch(recover_from_ric(np.stack(windows).astype(np.float32)))
+    return {**out, **_transitions(evaluator, windows, jerks, reference, rng, diversity_pairs)}
+
+
+def ground_truth_concat_jerk(instances: Sequence, window: int = DEFAULT_WINDOW) -> float:
+    """The "ground truth (concat)" Jerk: at the boundaries of each instance's real clips played back to back."""
+    values = [transition_jerk(*inst.real_concat(), window) for inst in instances if len(inst.lengths) > 1]
+    if not values:
+        raise ValueError("no instance has a boundary (all have one action)")
+    return float(np.nanmean(np.concatenate(values)))
+
+
+def evaluate_methods(
+    generator,
+    instances: Sequence,
+    evaluator,
+    reference: MultiMotionReference,
+    *,
+    methods: Sequence[str] | Mapping[str, Mapping] = ("tps", "independent"),
+    repeats: int = 3,
+    seed: int = 0,
+    **sampling,
+) -> dict[str, dict[str, tuple[float, float]]]:
+    """Table rows: the two ground truths, then every method generated ``repeats`` times (seeds ``seed + r``)
+    for all ``instances`` and scored with :func:`evaluate_multimotion` -> {row: {metric: (mean, ±95 %)}}.
+
+    ``generator`` has ``generate(texts, lengths, method=, seed=, **kw)`` (a :class:`MultiMotionGenerator`).
+    ``methods``: method names, or {row label: options} with a ``"method"`` entry and per-row options, e.g.
+    ``{"T_s = 90": {"method": "tps", "T_s": 90}, "SLERP": {"method": "slerp"}}``; ``sampling`` is shared.
+    """
+    if not isinstance(repeats, int) or repeats < 1:
+        raise ValueError(f"repeats must be a positive int, got {repeats!r}")
+    rows_spec = dict(methods) if isinstance(methods, Mapping) else {m: {"method": m} for m in methods}
+    if any("method" not in spec for spec in rows_spec.values()):
+        raise ValueError("every entry of a methods mapping needs a 'method' option")
+    texts = [inst.texts for inst in instances]
+    lengths = [list(inst.lengths) for inst in instances]
+    captions = [inst.captions for inst in instances]
+    single = [evaluate_ground_truth_single(evaluator, instances, reference, rng=seed + r) for r in range(repeats)]
+    concat_jerk = ground_truth_concat_jerk(instances, reference.window)  # deterministic: no spread
+    rows = {"Ground Truth (Single)": summarize(single), "Ground Truth (Concat)": {"jerk": (concat_jerk, 0.0)}}
+    for label, spec in rows_spec.items():
+        kw = {**sampling, **spec}
+        runs = []
+        for r in range(repeats):
+            motions = generator.generate(texts, lengths, seed=seed + r, **kw)
+            runs.append(evaluate_multimotion(evaluator, motions, captions, reference, rng=seed + r))
+        rows[label] = summarize(runs)
+    return rows
+
+
+# ---------------------------------------------------------------------------------------------- reporting
+
+
+def summarize(runs: Sequence[Mapping[str, float]]) -> dict[str, tuple[float, float]]:
+    """Repeated evaluations -> {metric: (mean, 95 % half-width)} (NaN runs of a metric are left out)."""
+    if len(runs) == 0:
+        raise ValueError("runs is empty")
+    out = {}
+    for key in runs[0]:
+        values = [float(r[key]) for r in runs if np.isfinite(r[key])]
+        out[key] = mean_ci(values) if values else (float("nan"), float("nan"))
+    return out
+
+
+def format_table(rows: Mapping[str, Mapping[str, tuple[float, float]]], metrics: Sequence[str] = METRICS,
+                 digits: int = 3) -> str:  # fmt: skip
+    """A Markdown table, one row per method (``summarize`` outputs); a missing metric prints as '-'."""
+    head = "| method | " + " | ".join(metrics) + " |\n|---|" + "---|" * len(metrics)
+    lines = [head]
+    for name, row in rows.items():
+        cells = [f"{row[m][0]:.{digits}f} ± {row[m][1]:.{digits}f}" if m in row else "-" for m in metrics]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)

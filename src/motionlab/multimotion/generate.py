@@ -1,0 +1,141 @@
+"""Texts in, multi-motions out: one front end over TPS and the baselines for a trained text-to-motion model.
+
+:class:`MultiMotionGenerator` holds the pieces (denoiser, transitions, text encoder, a decode function) so it
+works with :class:`motionlab.diffusion.pipeline.TextToMotion` (:meth:`MultiMotionGenerator.from_pipeline`,
+duck-typed: nothing is imported from the pipeline module) as well as with a tiny random model in tests.
+
+``decode`` maps (B, L) token ids padded with −1 to a list of B raw feature arrays (4·L_b, D), the
+signature of ``TextToMotion.decode``. Unless a call passes ``guidance_scale``, M2D2M's multi-motion s = 2 is
+used (``TextToMotion`` defaults to the single-motion s = 4). Methods:
+
+==============  ===========================================================================================
+``tps``         Two-Phase Sampling; the concatenated tokens are decoded as one sequence (Algorithm 1)
+``independent`` T_s = T: each action alone, tokens concatenated, decoded as one sequence (T2M-GPT baseline)
+``separate``    each action alone and decoded alone; feature rows concatenated (no joint step anywhere)
+``slerp``       each action ``W/2`` frames shorter per inner end, decoded alone, ``W`` blended frames between
+``handshake``   neighbouring actions share ``W`` frames while sampling; decoded as one sequence
+==============  ===========================================================================================
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from torch import nn
+
+from motionlab.diffusion import Transitions
+from motionlab.multimotion.baselines import (
+    DEFAULT_TRANSITION,
+    handshake_sample,
+    independent_sample,
+    shortened_lengths,
+)
+from motionlab.multimotion.stitch import blend_segments, concatenate_segments
+from motionlab.multimotion.tps import MultiMotionTokens, segment_layout, two_phase_sample
+
+METHODS = ("tps", "independent", "separate", "slerp", "handshake")
+DEFAULT_TS_FRACTION = 0.9  # M2D2M: T_s = 90 of T = 100
+MULTI_MOTION_GUIDANCE = 2.0  # M2D2M's s for multi-motion (4 for single motions)
+
+
+@dataclass
+class MultiMotion:
+    """One generated multi-action motion: raw features (T, D) and where each action starts."""
+
+    features: np.ndarray
+    boundaries: list[int]
+    texts: list[str]
+    method: str
+
+    @property
+    def segment_lengths(self) -> list[int]:
+        edges = [0, *self.boundaries, len(self.features)]
+        return [b - a for a, b in zip(edges, edges[1:], strict=False)]
+
+
+def _instances(texts, lengths) -> tuple[list[list[str]], list[list[int]]]:
+    nested = len(texts) > 0 and not isinstance(texts[0], str)
+    texts = [list(t) for t in texts] if nested else [list(texts)]
+    lengths = [list(n) for n in lengths] if nested else [list(lengths)]
+    if not texts or any(len(t) == 0 for t in texts):
+        raise ValueError("texts must be a non-empty list of action texts (or a list of such lists)")
+    if len(texts) != len(lengths) or any(len(t) != len(n) for t, n in zip(texts, lengths, strict=False)):
+        raise ValueError(f"texts and lengths must match one to one, got {len(texts)} instance(s) of texts and "
+                         f"lengths {lengths}")  # fmt: skip
+    return texts, lengths
+
+
+@dataclass
+class MultiMotionGenerator:
+    model: nn.Module
+    transitions: Transitions
+    text_encoder: nn.Module
+    decode: Callable[[torch.Tensor], list[np.ndarray]]
+    guidance_scale: float = MULTI_MOTION_GUIDANCE  # used when a call passes none
+
+    @classmethod
+    def from_pipeline(cls, pipe, decoder=None) -> MultiMotionGenerator:
+        """From a ``TextToMotion`` (anything with model, transitions, text_encoder and decode(ids, decoder))."""
+        for name in ("model", "transitions", "text_encoder", "decode"):
+            if not hasattr(pipe, name):
+                raise ValueError(f"pipe needs a {name!r} attribute (a TextToMotion), got {type(pipe).__name__}")
+        return cls(pipe.model, pipe.transitions, pipe.text_encoder, lambda ids: pipe.decode(ids, decoder=decoder))
+
+    @torch.no_grad()
+    def encode(self, texts: Sequence[str]):
+        """Text features (M, S, d) on the denoiser's device, the encoder in eval mode."""
+        was_training = self.text_encoder.training
+        self.text_encoder.eval()
+        try:
+            feats = self.text_encoder.encode(list(texts))
+        finally:
+            self.text_encoder.train(was_training)
+        dev = next(self.model.parameters()).device
+        return feats.tokens.to(dev), feats.padding_mask.to(dev)
+
+    def sample_tokens(self, texts, lengths, *, method: str = "tps", seed: int = 0, T_s: int | None = None,
+                      transition: int = DEFAULT_TRANSITION, **sampling) -> MultiMotionTokens:  # fmt: skip
+        """Token ids of every action for ``method`` (``slerp`` samples each action shorter, as
+        :func:`~motionlab.multimotion.baselines.shortened_lengths` says, so the blend restores ``lengths``)."""
+        texts, lengths = _instances(texts, lengths)
+        sampling.setdefault("guidance_scale", self.guidance_scale)
+        text = self.encode([t for inst in texts for t in inst])
+        g = torch.Generator().manual_seed(int(seed))
+        args = (self.model, self.transitions, text)
+        if method == "tps":
+            T_s = round(DEFAULT_TS_FRACTION * self.transitions.T) if T_s is None else T_s
+            return two_phase_sample(*args, lengths, T_s=T_s, generator=g, **sampling)
+        if method in ("independent", "separate"):
+            return independent_sample(*args, lengths, generator=g, **sampling)
+        if method == "slerp":
+            shorter = [shortened_lengths(n, transition) for n in lengths]
+            return independent_sample(*args, shorter, generator=g, **sampling)
+        if method == "handshake":
+            return handshake_sample(*args, lengths, generator=g, transition=transition, **sampling)
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+
+    def generate(self, texts, lengths, *, method: str = "tps", seed: int = 0, T_s: int | None = None,
+                 transition: int = DEFAULT_TRANSITION, **sampling) -> list[MultiMotion]:  # fmt: skip
+        """Multi-motions for one instance (``texts``: list of str, ``lengths``: frames, multiples of 4) or a
+        batch (lists of lists). ``sampling``: num_steps, timesteps, guidance_scale, top_p, top_k, ...;
+        ``T_s`` for ``tps`` (default 0.9·T), ``transition`` (frames) for ``slerp`` and ``handshake``."""
+        if method not in METHODS:
+            raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+        texts, lengths = _instances(texts, lengths)
+        segment_layout(lengths)  # validate before any work
+        out = self.sample_tokens(texts, lengths, method=method, seed=seed, T_s=T_s, transition=transition,
+                                 **sampling)  # fmt: skip
+        if method in ("tps", "independent", "handshake"):  # one decoder pass over the concatenated tokens
+            decoded = self.decode(out.concatenated())
+            return [MultiMotion(np.asarray(f), out.boundaries(b), texts[b], method) for b, f in enumerate(decoded)]
+        segments = self.decode(out.ids)  # one row per action, decoded alone
+        motions, m = [], 0
+        for inst in texts:
+            parts = [np.asarray(f) for f in segments[m : m + len(inst)]]
+            m += len(inst)
+            feats, bounds = blend_segments(parts, transition) if method == "slerp" else concatenate_segments(parts)
+            motions.append(MultiMotion(feats, bounds, inst, method))
+        return motions

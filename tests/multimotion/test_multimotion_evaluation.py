@@ -1,0 +1,145 @@
+"""Multi-motion evaluation: segment/caption alignment, transition windows at the edges, Jerk, references, CIs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from motionlab.data import Caption, MotionClip
+from motionlab.data.embedded import generate_clip
+from motionlab.metrics import mean_ci, transition_log_jerk
+from motionlab.multimotion import (
+    METRICS,
+    MultiActionInstance,
+    build_reference,
+    evaluate_ground_truth_single,
+    evaluate_multimotion,
+    format_table,
+    ground_truth_concat_jerk,
+    summarize,
+    transition_feature_windows,
+    transition_jerk,
+    transition_profile,
+)
+from motionlab.representation import joints_to_features, recover_from_ric
+
+FAMILIES = ("walk", "run", "wave", "jump", "squat", "bow")
+
+
+class TableEvaluator:
+    """Motions -> mean and std over time of 8 feature dims; a caption -> the embedding of the clip it was
+    written for (so a real clip and its own caption coincide, and R-Top3 checks the bookkeeping)."""
+
+    def __init__(self):
+        self.texts: dict[str, np.ndarray] = {}
+
+    def embed_motions(self, motions):
+        return np.stack([np.concatenate([m[:, 1:9].mean(0), m[:, 1:9].std(0)]) for m in motions])
+
+    def embed_texts(self, captions):
+        return np.stack([self.texts[c.text] for c in captions])
+
+
+@pytest.fixture(scope="module")
+def setup():
+    clips = []
+    for i, family in enumerate(FAMILIES):
+        joints = generate_clip(family, np.random.default_rng(i)).joints
+        features = joints_to_features(joints, "t2m", retarget_to_target=False).astype(np.float32)
+        clips.append(MotionClip(f"E{i:06d}", features, [Caption(f"a person does {family}", (f"{family}/VERB",))]))
+    instances = []
+    for order in ([0, 1, 2], [3, 4, 5], [5, 0, 3], [2, 4, 1]):
+        chosen = [clips[i] for i in order]
+        lengths = tuple(min(c.length, 60) // 4 * 4 for c in chosen)
+        instances.append(MultiActionInstance(tuple(chosen), tuple(c.captions[0] for c in chosen),
+                                             tuple(FAMILIES[i] for i in order), lengths))  # fmt: skip
+    evaluator = TableEvaluator()
+    for inst in instances:
+        for cap, seg in zip(inst.captions, inst.real_segments, strict=True):
+            evaluator.texts[cap.text] = evaluator.embed_motions([seg])[0]  # every clip is cut to the same length
+    reference = build_reference(evaluator, [c.features for c in clips], rng=0, window=40, n_windows=30)
+    return clips, instances, evaluator, reference
+
+
+def test_real_concatenations_score_perfect_retrieval_and_the_direct_jerk(setup):
+    _, instances, evaluator, reference = setup
+    motions = [inst.real_concat() for inst in instances]
+    captions = [inst.captions for inst in instances]
+    out = evaluate_multimotion(evaluator, motions, captions, reference, rng=0)
+    assert set(out) == set(METRICS) and all(np.isfinite(v) for v in out.values())
+    assert out["r_top3"] == 1.0 and out["mm_dist"] == pytest.approx(0.0, abs=1e-5)
+    direct = np.concatenate([transition_log_jerk(recover_from_ric(f), b, 40) for f, b in motions])
+    assert out["jerk"] == pytest.approx(float(np.nanmean(direct)))
+    assert ground_truth_concat_jerk(instances) == pytest.approx(out["jerk"])
+    shuffled = [caps[1:] + caps[:1] for caps in captions]  # every action paired with another's caption
+    assert evaluate_multimotion(evaluator, motions, shuffled, reference, rng=0)["mm_dist"] > 0.1
+
+
+def test_noisy_transitions_score_worse_than_real_ones(setup):
+    _, instances, evaluator, reference = setup
+    motions = [inst.real_concat() for inst in instances]
+    captions = [inst.captions for inst in instances]
+    rng = np.random.default_rng(0)
+    noisy = []
+    for features, bounds in motions:
+        f = features.copy()
+        for b in bounds:
+            f[b - 20 : b + 20, 1:9] += rng.normal(0, 0.5, (40, 8)).astype(np.float32)
+        noisy.append((f, bounds))
+    clean = evaluate_multimotion(evaluator, motions, captions, reference, rng=1)
+    worse = evaluate_multimotion(evaluator, noisy, captions, reference, rng=1)
+    assert worse["transition_fid"] > clean["transition_fid"] + 1.0
+
+
+def test_ground_truth_single_row(setup):
+    _, instances, evaluator, reference = setup
+    out = evaluate_ground_truth_single(evaluator, instances, reference, rng=0)
+    assert set(out) == set(METRICS) and out["r_top3"] == 1.0
+    assert all(np.isfinite(v) for v in out.values())
+
+
+def test_transition_windows_at_the_sequence_edges():
+    features = np.arange(50 * 3, dtype=np.float32).reshape(50, 3)
+    near = transition_feature_windows(features, [5, 45], window=40)
+    np.testing.assert_array_equal(near[0], features[0:40])  # shifted inside, never cut
+    np.testing.assert_array_equal(near[1], features[10:50])
+    middle = transition_feature_windows(np.zeros((100, 3)), [50], window=40)[0]
+    assert middle.shape == (40, 3)
+    short = transition_feature_windows(features[:30], [10], window=40)[0]
+    np.testing.assert_array_equal(short, features[:30])  # shorter than a window: all of it
+
+
+def test_transition_jerk_and_profile(setup):
+    _, instances, _, _ = setup
+    features, bounds = instances[0].real_concat()
+    jerk = transition_jerk(features, bounds)
+    assert jerk.shape == (2,) and np.isfinite(jerk).all()
+    profile = transition_profile([(features, bounds)], window=40)
+    assert profile["speed"].shape == (39,) and profile["jerk"].shape == (37,) and int(profile["n"]) == 2
+    assert profile["frames"][0] == -20 and (profile["speed"] >= 0).all()
+    with pytest.raises(ValueError, match="both sides"):
+        transition_profile([(features[:30], [10])], window=40)
+
+
+def test_bad_inputs(setup):
+    _, instances, evaluator, reference = setup
+    motions = [inst.real_concat() for inst in instances]
+    captions = [inst.captions for inst in instances]
+    with pytest.raises(ValueError, match="match"):
+        evaluate_multimotion(evaluator, motions, captions[:2], reference, rng=0)
+    with pytest.raises(ValueError, match="actions but"):
+        evaluate_multimotion(evaluator, motions, [c[:2] for c in captions], reference, rng=0)
+    with pytest.raises(ValueError, match="rng"):
+        evaluate_multimotion(evaluator, motions, captions, reference, rng="zero")
+
+
+def test_summary_and_table():
+    runs = [{"fid": 1.0, "jerk": 1.2}, {"fid": 2.0, "jerk": float("nan")}, {"fid": 3.0, "jerk": 1.4}]
+    s = summarize(runs)
+    assert s["fid"] == mean_ci([1.0, 2.0, 3.0]) and s["jerk"] == mean_ci([1.2, 1.4])
+    table = format_table({"TPS": s, "GT (concat)": {"jerk": (1.37, 0.004)}}, metrics=("fid", "jerk"))
+    lines = table.splitlines()
+    assert lines[0] == "| method | fid | jerk |" and lines[2].startswith("| TPS | 2.000 ± ")
+    assert lines[3] == "| GT (concat) | - | 1.370 ± 0.004 |"
+    with pytest.raises(ValueError, match="empty"):
+        summarize([])
