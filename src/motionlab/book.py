@@ -82,8 +82,9 @@ def setup(seed: int = 0, profile: str | None = None, threads: int | None = None)
     """Seed every RNG, set plotting defaults and torch threads; return the validated profile.
 
     ``profile`` falls back to ``$MOTIONLAB_PROFILE`` and then ``"laptop"``
-    (see :mod:`motionlab.profiles`). ``threads`` defaults to the number of CPUs, capped at 4 because
-    the tiny models of the book gain nothing from more and shared CI machines have 2 cores.
+    (see :mod:`motionlab.profiles`). ``threads`` defaults to ``$MOTIONLAB_THREADS``, else 1: the book's
+    small convolutions gain little from a second thread on an idle machine and become many times slower
+    when anything else shares the CPU (measured on 2-core machines), so one thread is the predictable choice.
     Library code never relies on these global seeds: it takes explicit generators. The seeds only
     make ad-hoc cells in a chapter (``torch.randn`` in a demo) repeatable.
     """
@@ -98,7 +99,9 @@ def setup(seed: int = 0, profile: str | None = None, threads: int | None = None)
     import torch  # local: importing motionlab.book should not pay for torch when unused
 
     torch.manual_seed(int(seed))
-    n_threads = threads if threads is not None else max(1, min(4, os.cpu_count() or 1))
+    n_threads = threads if threads is not None else int(os.environ.get("MOTIONLAB_THREADS", "1"))
+    if n_threads < 1:
+        raise ValueError(f"MOTIONLAB_THREADS must be a positive int, got {n_threads}")
     torch.set_num_threads(n_threads)
 
     import matplotlib as mpl

@@ -122,7 +122,7 @@ def reconstruct_clips(
     for i, clip in enumerate(clips):
         clip = np.asarray(clip, dtype=np.float32)
         if clip.ndim != 2 or clip.shape[1] != model.feature_dim or len(clip) < unit:
-            raise ValueError(f"clips[{i}] must have shape (T >= {unit}, {model.feature_dim}), got {clip.shape}")
+            raise ValueError(f"clips[{i}] must be (T >= {unit}, {model.feature_dim}), got {clip.shape}")
         x = torch.from_numpy(_crop(clip, unit))[None]  # (1, T, D)
         ids = model.encode(x, **layers)  # (1, T/4) or (1, T/4, R)
         recon = model.decode(ids, **layers)[0].cpu().numpy()  # (T, D) normalised
@@ -165,16 +165,15 @@ def codebook_pca(codes: torch.Tensor | np.ndarray, n_components: int = 2) -> tup
 # A quantizer on 2-D points
 
 
-def gaussian_ring(n: int, modes: int = 8, radius: float = 1.0, std: float = 0.1,
-                  generator: torch.Generator | None = None) -> torch.Tensor:  # fmt: skip
+def gaussian_ring(n: int, modes: int = 8, radius: float = 1.0, std: float = 0.1, *,
+                  generator: torch.Generator) -> torch.Tensor:  # fmt: skip
     """``n`` points ``(n, 2)`` from ``modes`` equal Gaussian blobs spaced evenly on a circle."""
     if n < 1 or modes < 1 or radius < 0 or std < 0:
         raise ValueError(f"need n >= 1, modes >= 1, radius >= 0, std >= 0; got {n}, {modes}, {radius}, {std}")
-    g = generator if generator is not None else torch.Generator().manual_seed(0)
-    mode = torch.randint(modes, (n,), generator=g)
+    mode = torch.randint(modes, (n,), generator=generator)
     angle = 2 * torch.pi * mode.float() / modes
     centres = radius * torch.stack([torch.cos(angle), torch.sin(angle)], dim=1)  # (n, 2)
-    return centres + std * torch.randn(n, 2, generator=g)
+    return centres + std * torch.randn(n, 2, generator=generator)
 
 
 @dataclass
