@@ -6,6 +6,15 @@ Read in this order: :mod:`.schedule` (α, β, γ), :mod:`.transitions` (the matr
 """
 
 from .loss import AUX_WEIGHT, DiffusionLoss, diffusion_loss, sample_timesteps, vb_terms
+from .pipeline import (
+    TextToMotion,
+    evaluate_fixed_motions,
+    evaluate_ground_truth,
+    evaluate_text_to_motion,
+    generation_lengths,
+    multimodality_score,
+    text_to_motion_for_dataset,
+)
 from .posterior import (
     LOG_FLOOR,
     gumbel_sample,
@@ -25,6 +34,17 @@ from .schedule import (
     linear_schedule,
     vqdiffusion_code_schedule,
     vqdiffusion_paper_schedule,
+)
+from .training import (
+    PAPER_ETA,
+    DiffusionTrainingConfig,
+    TextToMotionNetworks,
+    TokenBatches,
+    WordEncoderConfig,
+    diffusion_training_config,
+    make_transitions,
+    tokenize_clips,
+    train_text_to_motion,
 )
 from .transformer import (
     DenoisingTransformer,
@@ -50,4 +70,9 @@ __all__ = [
     "relative_position_bucket", "safe_log", "sample", "sample_timesteps", "segment_cross_mask", "timestep_grid",
     "transformer_config", "truncate", "uniform_matrix", "vb_terms", "vqdiffusion_code_schedule",
     "vqdiffusion_paper_schedule",
+    # the text-to-motion pipeline (training.py, pipeline.py)
+    "PAPER_ETA", "DiffusionTrainingConfig", "TextToMotion", "TextToMotionNetworks", "TokenBatches",
+    "WordEncoderConfig", "diffusion_training_config", "evaluate_fixed_motions", "evaluate_ground_truth",
+    "evaluate_text_to_motion", "generation_lengths", "make_transitions", "multimodality_score",
+    "text_to_motion_for_dataset", "tokenize_clips", "train_text_to_motion",
 ]  # fmt: skip
