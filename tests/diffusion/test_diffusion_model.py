@@ -20,14 +20,6 @@ from motionlab.diffusion import (
 K, D_TEXT, T = 8, 12, 10
 
 
-@pytest.fixture(autouse=True)
-def _one_thread():
-    n = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(n)
-
-
 def _model(seed: int = 0, **kw) -> DenoisingTransformer:
     cfg = transformer_config("smoke", num_codes=K, text_dim=D_TEXT, timesteps=T, **kw)
     return DenoisingTransformer(cfg, seed).eval()

@@ -22,14 +22,6 @@ from motionlab.diffusion import (
 K, T = 5, 6
 
 
-@pytest.fixture(autouse=True)
-def _one_thread():
-    n = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(n)
-
-
 def _transitions(eta: float):
     cb = torch.randn(K, 2, generator=torch.Generator().manual_seed(3))
     return build_transitions(get_schedule(T=T), codebook=cb, eta=eta)

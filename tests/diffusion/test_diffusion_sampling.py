@@ -19,14 +19,6 @@ from motionlab.diffusion import (
 K, D_TEXT, T = 8, 12, 10
 
 
-@pytest.fixture(autouse=True)
-def _one_thread():
-    n = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(n)
-
-
 @pytest.fixture(scope="module")
 def setup():
     cfg = transformer_config("smoke", num_codes=K, text_dim=D_TEXT, timesteps=T)

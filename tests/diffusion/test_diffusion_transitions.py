@@ -11,14 +11,6 @@ from motionlab.diffusion import DISTANCES, build_transitions, codebook_distance,
 K, T = 6, 8
 
 
-@pytest.fixture(autouse=True)
-def _one_thread():
-    n = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(n)
-
-
 def _codebook(k: int = K, seed: int = 0) -> torch.Tensor:
     return torch.randn(k, 3, generator=torch.Generator().manual_seed(seed))
 

@@ -22,14 +22,6 @@ from motionlab.text import (
 CAPTIONS = ["A person walks forward.", "a person jumps", "someone walks in a circle", "the man waves his hand"]
 
 
-@pytest.fixture(autouse=True)
-def _one_thread():
-    n = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(n)
-
-
 def _encoder(**kw) -> WordTextEncoder:
     return get_text_encoder("word", captions=CAPTIONS, dim=16, n_layers=1, n_heads=2, **kw).eval()
 
