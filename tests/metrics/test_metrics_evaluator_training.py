@@ -68,15 +68,6 @@ def toy() -> ToyDataset:
     return ToyDataset()
 
 
-@pytest.fixture(scope="module", autouse=True)
-def one_thread():
-    """Tiny GRUs run fastest on one thread, and much faster than on two when the CPU is shared."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
-
-
 @pytest.fixture(scope="module")
 def trained(toy):
     return train_evaluator(toy, config=TINY)
