@@ -18,6 +18,7 @@ from motionlab.flow.rectified_flow import (
     sample_noise,
     time_grid,
 )
+from motionlab.flow.training import discord_training_log, train_discord, train_or_load_discord
 from motionlab.flow.unet1d import UNet1D, UNetConfig
 
 __all__ = [
@@ -39,4 +40,7 @@ __all__ = [
     "sample",
     "sample_noise",
     "time_grid",
+    "discord_training_log",
+    "train_discord",
+    "train_or_load_discord",
 ]

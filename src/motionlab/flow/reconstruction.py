@@ -1,0 +1,167 @@
+"""The reconstruction setting of DisCoRD's Table 1: ground truth → tokens → decoded motion → compared with it.
+
+    GT clip (T, D) normalised --crop to whole tokens, tokenizer.encode--> ids (T/q, R)
+        --decoder--> recon (T, D)   feed-forward: tokenizer.decode(ids); DisCoRD: ODE from seeded noise
+    both de-normalised --recover_from_ric--> joints --> MPJPE (mm), sJPE (Noise + Static); embeddings --> FID
+
+The tokens are the same for both decoders, so every difference in the scores is the decoder's.
+Clips of equal (cropped) length are decoded together in one batch: both decoders are convolutional, so a
+clip is never padded and its result does not depend on which other clips share its batch's length,
+except for the noise a DisCoRD batch draws (batch ``k`` uses ``seed + k``: a seed fixes every decode).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+import torch
+
+from motionlab.metrics import fid, mpjpe, sjpe_dataset
+from motionlab.representation import get_skeleton, recover_from_ric
+
+SKELETON_OF_DIM = {263: "t2m", 251: "kit"}
+
+
+def _check_clips(clips: Sequence[Any], feature_dim: int, q: int, name: str = "clips") -> list[np.ndarray]:
+    if isinstance(clips, np.ndarray) and clips.ndim == 2:
+        raise ValueError(f"{name} must be a list of (T, D) arrays, not one (T, D) clip")
+    if len(clips) == 0:
+        raise ValueError(f"{name} is empty")
+    out = []
+    for i, clip in enumerate(clips):
+        a = np.asarray(clip.detach().cpu() if isinstance(clip, torch.Tensor) else clip, dtype=np.float32)
+        if a.ndim != 2 or a.shape[1] != feature_dim or a.shape[0] < q:
+            raise ValueError(f"{name}[{i}] must have shape (T >= {q}, {feature_dim}), got {a.shape}")
+        out.append(a[: a.shape[0] // q * q])  # whole tokens only
+    return out
+
+
+def length_batches(lengths: Sequence[int], batch_size: int) -> list[np.ndarray]:
+    """Indices grouped by equal length, in order of length, each group cut into batches of ``batch_size``."""
+    if batch_size < 1:
+        raise ValueError(f"batch_size must be >= 1, got {batch_size}")
+    lengths = np.asarray(lengths)
+    batches = []
+    for value in np.unique(lengths):
+        idx = np.flatnonzero(lengths == value)
+        batches.extend(idx[s : s + batch_size] for s in range(0, len(idx), batch_size))
+    return batches
+
+
+@torch.no_grad()
+def decode_clips(
+    clips: Sequence[np.ndarray],
+    tokenizer: Any,
+    decoder: Any = None,
+    *,
+    steps: int | None = None,
+    solver: str | None = None,
+    seed: int = 0,
+    batch_size: int = 64,
+) -> list[np.ndarray]:
+    """Reconstruct normalised clips ``(T_i, D)`` through the tokenizer's tokens; returns ``(T_i', D)`` arrays.
+
+    ``T_i'`` is ``T_i`` floored to whole tokens (the ground truth to compare with is ``clip[:T_i']``).
+    ``decoder=None`` uses the tokenizer's feed-forward decoder; a :class:`~motionlab.flow.DisCoRDDecoder`
+    decodes the same ids with ``steps`` intervals of ``solver`` (its config's defaults if ``None``).
+    """
+    q = int(tokenizer.downsample)
+    crops = _check_clips(clips, int(tokenizer.feature_dim), q)
+    out: list[np.ndarray | None] = [None] * len(crops)
+    for k, idx in enumerate(length_batches([len(c) for c in crops], batch_size)):
+        motion = torch.as_tensor(np.stack([crops[i] for i in idx]))  # (B, T, D)
+        ids = tokenizer.encode(motion)  # (B, T/q[, R])
+        if decoder is None:
+            recon = tokenizer.decode(ids)
+        else:
+            recon = decoder.decode(ids, tokenizer=tokenizer, steps=steps, solver=solver, seed=seed + k)
+        recon = recon.float().cpu().numpy()  # (B, T, D)
+        for j, i in enumerate(idx):
+            out[i] = recon[j]
+    return out  # type: ignore[return-value]
+
+
+# ----------------------------------------------------------------------------- scores
+
+
+@dataclass(frozen=True)
+class ReconstructionScores:
+    """Table 1's columns for one decoder: FID, MPJPE (mm) and sJPE with its two parts."""
+
+    fid: float
+    mpjpe_mm: float
+    sjpe: float
+    noise_sjpe: float
+    static_sjpe: float
+
+    def as_dict(self) -> dict[str, float]:
+        return asdict(self)
+
+
+def joints_of(features: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """Raw (de-normalised) features ``(T, D)`` → joint positions ``(T, J, 3)`` in the skeleton's unit."""
+    dim = int(np.asarray(features[0]).shape[-1])
+    if dim not in SKELETON_OF_DIM:
+        raise ValueError(f"features must have {sorted(SKELETON_OF_DIM)} dims (t2m / kit), got {dim}")
+    n_joints = get_skeleton(SKELETON_OF_DIM[dim]).n_joints
+    return [np.asarray(recover_from_ric(np.asarray(f, dtype=np.float64), n_joints)) for f in features]
+
+
+def reconstruction_scores(
+    pred_features: Sequence[np.ndarray],
+    gt_features: Sequence[np.ndarray],
+    embed: Callable[[list[np.ndarray]], np.ndarray] | None = None,
+    gt_embeddings: np.ndarray | None = None,
+) -> ReconstructionScores:
+    """Score reconstructions against their ground truth; both are lists of raw ``(T_i, D)`` features.
+
+    ``embed`` (e.g. an evaluator's ``embed_motions``) maps raw clips to ``(N, d)`` embeddings for FID;
+    pass ``gt_embeddings`` to reuse the ground truth's. Without ``embed`` the FID is NaN.
+    MPJPE pools every pose (pelvis-aligned, millimetres); sJPE is the mean over clips (element variant).
+    """
+    if len(pred_features) != len(gt_features) or len(pred_features) == 0:
+        raise ValueError(f"need equal, non-zero numbers of clips, got {len(pred_features)} and {len(gt_features)}")
+    for i, (p, g) in enumerate(zip(pred_features, gt_features)):
+        if np.shape(p) != np.shape(g):
+            raise ValueError(f"clip {i}: prediction {np.shape(p)} and ground truth {np.shape(g)} differ in shape")
+    skeleton = SKELETON_OF_DIM.get(int(np.shape(gt_features[0])[-1]), "t2m")
+    pred_joints, gt_joints = joints_of(pred_features), joints_of(gt_features)
+    to_mm = 1000.0 * get_skeleton(skeleton).meters_per_unit
+    jerk = sjpe_dataset(pred_joints, gt_joints, skeleton)
+    if embed is None:
+        distance = float("nan")
+    else:
+        reference = gt_embeddings if gt_embeddings is not None else embed(list(gt_features))
+        distance = fid(reference, embed(list(pred_features)))
+    return ReconstructionScores(distance, to_mm * mpjpe(pred_joints, gt_joints), jerk.sjpe, jerk.noise, jerk.static)
+
+
+# ----------------------------------------------------------------------------- timing
+
+
+def time_calls(fn: Callable[[], Any], repeats: int = 5, warmup: int = 1) -> np.ndarray:
+    """Wall-clock seconds of ``repeats`` calls of ``fn()`` after ``warmup`` untimed calls: ``(repeats,)``."""
+    if repeats < 1 or warmup < 0:
+        raise ValueError(f"need repeats >= 1 and warmup >= 0, got {repeats}, {warmup}")
+    for _ in range(warmup):
+        fn()
+    seconds = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        seconds.append(time.perf_counter() - start)
+    return np.array(seconds)
+
+
+__all__ = [
+    "ReconstructionScores",
+    "decode_clips",
+    "joints_of",
+    "length_batches",
+    "reconstruction_scores",
+    "time_calls",
+]

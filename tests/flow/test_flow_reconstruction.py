@@ -1,0 +1,101 @@
+"""The reconstruction setting: batching by length changes nothing, seeds fix decodes, scores are right at 0."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from motionlab.data.embedded.writer import build_clip, plan_families
+from motionlab.flow import DisCoRDDecoder, discord_config
+from motionlab.flow.reconstruction import (
+    ReconstructionScores,
+    decode_clips,
+    length_batches,
+    reconstruction_scores,
+    time_calls,
+)
+from motionlab.tokenizers import build_tokenizer, rvq_config
+
+
+@pytest.fixture(scope="module")
+def raw_clips():
+    """Four procedural clips (raw 263-d features) of different lengths."""
+    specs = plan_families(21, seed=0)
+    return [build_clip(0, i, specs[i])[0][: 40 + 7 * i] for i in range(4)]  # 40, 47, 54, 61 frames
+
+
+@pytest.fixture(scope="module")
+def tokenizer():
+    return build_tokenizer(rvq_config("smoke")).eval()  # untrained: only its shapes and determinism matter
+
+
+def normalised(clips):
+    stacked = np.concatenate(clips)
+    mean, std = stacked.mean(0), stacked.std(0) + 1e-3
+    return [((c - mean) / std).astype(np.float32) for c in clips]
+
+
+def test_length_batches_cover_every_index_once():
+    lengths = [8, 4, 8, 8, 12, 4, 8]
+    batches = length_batches(lengths, batch_size=2)
+    flat = np.concatenate(batches)
+    assert sorted(flat.tolist()) == list(range(len(lengths)))
+    assert all(len(b) <= 2 and len({lengths[i] for i in b}) == 1 for b in batches)
+    assert [lengths[b[0]] for b in batches] == [4, 8, 8, 12]  # by length, then cut
+    with pytest.raises(ValueError, match="batch_size"):
+        length_batches(lengths, 0)
+
+
+def test_feed_forward_batches_equal_one_clip_at_a_time(raw_clips, tokenizer):
+    clips = normalised(raw_clips + [raw_clips[1][:47]])  # two clips of 47 frames share a batch
+    batched = decode_clips(clips, tokenizer)
+    for clip, recon in zip(clips, batched):
+        assert recon.shape == (len(clip) // 4 * 4, 263)  # cropped to whole tokens
+        crop = torch.as_tensor(clip[: len(recon)])[None]
+        alone = tokenizer.decode(tokenizer.encode(crop))[0].detach().numpy()
+        np.testing.assert_allclose(recon, alone, atol=1e-5)
+
+
+def test_discord_decodes_are_fixed_by_the_seed(raw_clips, tokenizer):
+    decoder = DisCoRDDecoder(discord_config("smoke", tokenizer=tokenizer)).attach(tokenizer)
+    clips = normalised(raw_clips)
+    first = decode_clips(clips, tokenizer, decoder, steps=2, seed=5)
+    again = decode_clips(clips, tokenizer, decoder, steps=2, seed=5)
+    other = decode_clips(clips, tokenizer, decoder, steps=2, seed=6)
+    assert [r.shape for r in first] == [(40, 263), (44, 263), (52, 263), (60, 263)]
+    assert all(np.array_equal(a, b) for a, b in zip(first, again))
+    assert not any(np.array_equal(a, b) for a, b in zip(first, other))
+
+
+def test_scores_of_a_perfect_and_a_noisy_reconstruction(raw_clips):
+    def embed(clips):  # any fixed embedding works for FID's algebra
+        return np.stack([np.concatenate([c.mean(0)[:6], c.std(0)[:6]]) for c in clips])
+
+    many = raw_clips * 4  # 16 clips: enough for a 12-d covariance
+    perfect = reconstruction_scores(many, many, embed)
+    assert isinstance(perfect, ReconstructionScores)
+    assert perfect.mpjpe_mm == 0.0 and perfect.sjpe == 0.0 and abs(perfect.fid) < 1e-6
+
+    rng = np.random.default_rng(0)
+    noisy = [c + rng.normal(0.0, 0.01, c.shape).astype(np.float32) for c in many]  # frame-wise jitter
+    scores = reconstruction_scores(noisy, many, embed)
+    assert scores.mpjpe_mm > 1.0 and scores.fid > 0.0
+    assert scores.noise_sjpe > scores.static_sjpe  # jitter adds jerk
+    assert np.isclose(scores.sjpe, scores.noise_sjpe + scores.static_sjpe)
+    assert np.isnan(reconstruction_scores(noisy, many).fid)  # no embedding, no FID
+    assert set(scores.as_dict()) == {"fid", "mpjpe_mm", "sjpe", "noise_sjpe", "static_sjpe"}
+
+
+def test_input_checks(raw_clips, tokenizer):
+    with pytest.raises(ValueError, match="list of"):
+        decode_clips(raw_clips[0], tokenizer)
+    with pytest.raises(ValueError, match=r"clips\[0\]"):
+        decode_clips([np.zeros((2, 263))], tokenizer)
+    with pytest.raises(ValueError, match="equal"):
+        reconstruction_scores(raw_clips[:2], raw_clips[:3])
+    with pytest.raises(ValueError, match="shape"):
+        reconstruction_scores([raw_clips[0]], [raw_clips[1]])
+    with pytest.raises(ValueError, match="repeats"):
+        time_calls(lambda: None, repeats=0)
+    assert time_calls(lambda: None, repeats=3).shape == (3,)
