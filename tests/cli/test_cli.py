@@ -78,3 +78,31 @@ def test_convert_a_cmu_take(shared_data, tmp_path):
     out, take = tmp_path / "001417.npy", shared_data / "cmu-bvh" / "131_02.bvh"
     assert main(["convert", str(take), str(out), "--start", "10", "--end", "208"]) == 0
     assert np.load(out).shape == (197, 263)
+
+
+def test_generate_single_and_multi_action(tmp_path, isolated_cache, capsys):
+    data = tmp_path / "data"
+    assert main(["data", "make-embedded", "--out", str(data), "--clips", "42"]) == 0
+    common = ["--profile", "smoke", "--data", str(data), "--device", "cpu"]
+    out = tmp_path / "wave.npy"
+    assert main(["generate", "a person waves", "--length", "40", "--out", str(out), *common]) == 0
+    assert np.load(out).shape == (40, 263)
+    two = tmp_path / "two.bvh"
+    texts = ["a person walks", "a person jumps"]
+    assert main(["generate", *texts, "--length", "40", "32", "--out", str(two), *common]) == 0
+    assert two.read_text().startswith("HIERARCHY")
+    capsys.readouterr()
+    assert main(["generate", "a person waves", "--length", "42", "--out", str(tmp_path / "bad.npy"), *common]) == 2
+    assert "multiples of 4" in capsys.readouterr().err and not (tmp_path / "bad.npy").exists()
+    assert main(["generate", "a", "b", "--length", "40", "40", "40", "--out", str(tmp_path / "x.npy"), *common]) == 2
+
+
+def test_train_every_model_kind(tmp_path, isolated_cache, capsys):
+    data = tmp_path / "data"
+    # the evaluator needs at least 32 training clips
+    assert main(["data", "make-embedded", "--out", str(data), "--clips", "120"]) == 0
+    for kind in ("evaluator", "discord", "diffusion"):
+        assert main(["train", kind, "--profile", "smoke", "--data", str(data), "--device", "cpu"]) == 0
+        assert f"{kind} (smoke" in capsys.readouterr().out
+    cached = {p.name for p in (isolated_cache / "models").iterdir()}
+    assert {"text_motion_evaluator", "discord", "rvq", "text_to_motion", "vq"} <= cached
