@@ -199,6 +199,33 @@ def ground_truth_concat_jerk(instances: Sequence, window: int = DEFAULT_WINDOW) 
     return float(np.nanmean(np.concatenate(values)))
 
 
+def segment_jerk(motions: Sequence, window: int = DEFAULT_WINDOW, *, rng) -> np.ndarray:
+    """Eq. 10 Jerk *away from* the transitions: one random ``window``-frame window inside each action segment.
+
+    The window never crosses a boundary (segments shorter than ``window`` are skipped), and the joints are
+    recovered from the whole motion, as for :func:`transition_jerk`. This is how smooth a method's motion is
+    in itself: the generated counterpart of the "ground truth (single)" Jerk, and the level a transition
+    Jerk should be read against when the generator is rougher (or smoother) than real data everywhere.
+    Returns one value per window, (n_windows,).
+    """
+    rng = _rng(rng)
+    values = []
+    for motion in motions:
+        features, boundaries = _parts(motion)
+        joints = recover_from_ric(np.asarray(features, np.float32))  # (T, J, 3)
+        edges = [0, *boundaries, len(joints)]
+        windows = []
+        for a, b in zip(edges, edges[1:], strict=False):
+            if b - a >= window:
+                start = a + int(rng.integers(b - a - window + 1))
+                windows.append(joints[start : start + window])
+        if windows:
+            values.append(log_jerk_batch(np.stack(windows)))
+    if not values:
+        raise ValueError(f"no action segment has the {window} frames a window needs")
+    return np.concatenate(values)
+
+
 def evaluate_methods(
     generator,
     instances: Sequence,
@@ -208,6 +235,7 @@ def evaluate_methods(
     methods: Sequence[str] | Mapping[str, Mapping] = ("tps", "independent"),
     repeats: int = 3,
     seed: int = 0,
+    generated: dict | None = None,
     **sampling,
 ) -> dict[str, dict[str, tuple[float, float]]]:
     """Table rows: the two ground truths, then every method generated ``repeats`` times (seeds ``seed + r``)
@@ -216,9 +244,13 @@ def evaluate_methods(
     ``generator`` has ``generate(texts, lengths, method=, seed=, **kw)`` (a :class:`MultiMotionGenerator`).
     ``methods``: method names, or {row label: options} with a ``"method"`` entry and per-row options, e.g.
     ``{"T_s = 90": {"method": "tps", "T_s": 90}, "SLERP": {"method": "slerp"}}``; ``sampling`` is shared.
+    ``generated``: a dict to receive the motions, ``{row label: [motions of repeat 0, 1, ...]}``, for plots
+    and further metrics (e.g. :func:`segment_jerk`) without sampling again.
     """
     if not isinstance(repeats, int) or repeats < 1:
         raise ValueError(f"repeats must be a positive int, got {repeats!r}")
+    if generated is not None and not isinstance(generated, dict):
+        raise ValueError(f"generated must be a dict (filled with the motions) or None, got {type(generated).__name__}")
     rows_spec = dict(methods) if isinstance(methods, Mapping) else {m: {"method": m} for m in methods}
     if any("method" not in spec for spec in rows_spec.values()):
         raise ValueError("every entry of a methods mapping needs a 'method' option")
@@ -234,6 +266,8 @@ def evaluate_methods(
         for r in range(repeats):
             motions = generator.generate(texts, lengths, seed=seed + r, **kw)
             runs.append(evaluate_multimotion(evaluator, motions, captions, reference, rng=seed + r))
+            if generated is not None:
+                generated.setdefault(label, []).append(motions)
         rows[label] = summarize(runs)
     return rows
 
