@@ -40,6 +40,7 @@ from motionlab.diffusion.training import (
 from motionlab.diffusion.transformer import DenoisingTransformer, TransformerConfig
 from motionlab.diffusion.transitions import Transitions
 from motionlab.metrics.distribution import multimodality
+from motionlab.metrics.evaluator_training import pick_captions
 from motionlab.profiles import get_profile
 from motionlab.representation import Normalizer
 from motionlab.text import TextEncoder, TextFeatures, check_texts
@@ -280,10 +281,6 @@ def generation_lengths(clips) -> list[int]:
     return [len(getattr(c, "features", c)) // FRAMES_PER_TOKEN * FRAMES_PER_TOKEN for c in clips]
 
 
-def _pick_captions(clips, rng: np.random.Generator) -> list[Any]:
-    return [c.captions[int(rng.integers(len(c.captions)))] for c in clips]
-
-
 def _check_eval_args(clips, repeats: int, seed: int) -> None:
     if len(clips) < 2:
         raise ValueError(f"need at least 2 clips to evaluate, got {len(clips)}")
@@ -315,7 +312,7 @@ def evaluate_text_to_motion(
     runs = []
     for r in range(repeats):
         rng = np.random.default_rng([int(seed), r])
-        captions = _pick_captions(clips, rng)
+        captions = pick_captions(clips, rng)
         motions = fn([c.text for c in captions], lengths, seed=1000 * int(seed) + r, **sampling)
         runs.append(evaluator.evaluate_generation(clips, motions, captions, rng))
     return runs
@@ -331,7 +328,7 @@ def evaluate_fixed_motions(evaluator, clips, motions: Sequence[np.ndarray], *, r
     runs = []
     for r in range(repeats):
         rng = np.random.default_rng([int(seed), r])
-        captions = _pick_captions(clips, rng)
+        captions = pick_captions(clips, rng)
         runs.append(evaluator.evaluate_generation(clips, list(motions), captions, rng))
     return runs
 
