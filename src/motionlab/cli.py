@@ -118,8 +118,124 @@ def _convert(args: argparse.Namespace) -> int:
     return 0
 
 
+def _evaluate(args: argparse.Namespace) -> int:
+    from .data import load_dataset
+    from .evaluation import EVALUATORS, check_json_path, default_repeats, write_json
+    from .profiles import get_profile
+
+    profile = get_profile(args.profile)
+    config = _evaluation_config(args, default_repeats(profile) if args.repeats is None else args.repeats)
+    if args.json is not None:
+        check_json_path(args.json, force=args.force)  # refuse before hours of work, not after
+    dataset = load_dataset(args.data, profile=profile)
+    table = EVALUATORS[args.task](dataset, config, profile, device=args.device, progress=sys.stderr.isatty())
+    print(table.header())
+    print(table.to_markdown())
+    if args.json is not None:
+        print(f"wrote {write_json(table, args.json, force=args.force)}", file=sys.stderr)
+    return 0
+
+
+def _evaluation_config(args: argparse.Namespace, repeats: int):
+    """The task's config from the parsed options (the config validates them)."""
+    from .evaluation import MultiMotionConfig, ReconstructionConfig, TextToMotionConfig
+
+    common = dict(split=args.split, repeats=repeats, seed=args.seed, decoder=args.decoder, steps=args.steps,
+                  solver=args.solver)  # fmt: skip
+    if args.task == "reconstruction":
+        return ReconstructionConfig(tokenizer=args.tokenizer, limit=args.limit, **common)
+    sampling = dict(num_steps=args.num_steps, guidance_scale=args.guidance_scale)
+    if args.task == "t2m":
+        return TextToMotionConfig(limit=args.limit, multimodality=args.multimodality, mm_texts=args.mm_texts,
+                                  mm_repeats=args.mm_repeats, **sampling, **common)  # fmt: skip
+    methods = tuple(m.strip() for m in args.methods.split(","))
+    return MultiMotionConfig(methods=methods, instances=args.instances, actions=args.actions, T_s=args.T_s,
+                             **sampling, **common)  # fmt: skip
+
+
+def _add_evaluate(sub) -> None:
+    """``evaluate TASK``: one sub-command per paper table, sharing the data, model and output options."""
+    profiles = ["smoke", "laptop", "full"]
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--profile", choices=profiles, default=None,
+                        help="model size (default: $MOTIONLAB_PROFILE or laptop)")  # fmt: skip
+    common.add_argument("--data", default=None, help="a HumanML3D/KIT-ML folder (default: the embedded dataset)")
+    common.add_argument("--device", default=None, help="cpu, cuda, cuda:1 ... (default: CUDA when present)")
+    common.add_argument("--repeats", type=int, default=None,
+                        help="evaluations for the 95%% intervals (default: 2 smoke, 5 laptop, 20 full)")  # fmt: skip
+    common.add_argument("--seed", type=int, default=0, help="seeds every random draw (default: 0)")
+    common.add_argument("--split", choices=["train", "val", "test"], default="test", help="(default: test)")
+    common.add_argument("--json", type=Path, default=None, help="also write the table to this .json file")
+    common.add_argument("--force", action="store_true", help="replace an existing --json file")
+    flow = argparse.ArgumentParser(add_help=False)
+    flow.add_argument("--steps", type=int, default=None, help="DisCoRD ODE intervals (default: its config's)")
+    flow.add_argument("--solver", default=None, help="DisCoRD ODE solver: euler or midpoint (default: its config's)")
+    sampling = argparse.ArgumentParser(add_help=False)
+    sampling.add_argument("--num-steps", type=int, default=None, help="diffusion sampling steps (default: all T)")
+    sampling.add_argument("--guidance-scale", type=float, default=None, help="classifier-free guidance s")
+
+    evaluate = sub.add_parser("evaluate", help="the papers' tables with 95%% CIs: reconstruction, t2m, multi",
+                              description="Evaluate the book's cached models (trained on first use) and print a "
+                                          "paper-style Markdown table, mean ± 95% half-width per cell.")  # fmt: skip
+    tasks = evaluate.add_subparsers(dest="task", required=True, metavar="TASK")
+    rec = tasks.add_parser("reconstruction", parents=[common, flow], help="DisCoRD Table 1: tokens -> decoded motion",
+                           description="Ground truth -> tokens -> decoded motion: FID, MPJPE, sJPE, Noise and "
+                                       "Static sJPE. The feed-forward decoder is deterministic (one run).")  # fmt: skip
+    rec.add_argument("--decoder", choices=["vq", "rvq", "discord"], default="discord",
+                     help="a tokenizer's feed-forward decoder, or discord: feed-forward and DisCoRD rows")  # fmt: skip
+    rec.add_argument("--tokenizer", choices=["vq", "rvq"], default=None,
+                     help="with --decoder discord: whose tokens DisCoRD decodes (default: rvq)")  # fmt: skip
+    rec.add_argument("--limit", type=int, default=None, help="score only the first K clips of the split")
+
+    t2m = tasks.add_parser("t2m", parents=[common, flow, sampling], help="text to motion: R-precision, FID, ...",
+                           description="The text-to-motion protocol: R-precision top 1-3, FID, MM-Dist, "
+                                       "Diversity (+ MultiModality) of the diffusion model and of the real "
+                                       "motions.")  # fmt: skip
+    t2m.add_argument("--decoder", choices=["vq", "discord"], default="vq",
+                     help="decode the generated VQ tokens with the VQ decoder or DisCoRD (default: vq)")  # fmt: skip
+    t2m.add_argument("--limit", type=int, default=None, help="use only the first K clips (K >= 32)")
+    t2m.add_argument("--multimodality", action="store_true", help="also MultiModality (slow)")
+    t2m.add_argument("--mm-texts", type=int, default=100, help="texts for MultiModality (default: 100)")
+    t2m.add_argument("--mm-repeats", type=int, default=30, help="generations per text (default: 30)")
+
+    multi = tasks.add_parser("multi", parents=[common, flow, sampling], help="M2D2M multi-motion: TPS vs baselines",
+                             description="Multi-action instances from the split's single-action clips; "
+                                         "per-action and transition metrics (FID, Diversity, Jerk).")  # fmt: skip
+    multi.add_argument("--methods", default="tps,independent",
+                       help="comma-separated, of tps, independent, separate, slerp, handshake "
+                            "(default: tps,independent)")  # fmt: skip
+    multi.add_argument("--instances", type=int, default=None,
+                       help="multi-action instances (default: as many as the pool covers once)")  # fmt: skip
+    multi.add_argument("--actions", type=int, default=4, help="actions per instance (default: 4)")
+    multi.add_argument("--T-s", dest="T_s", type=int, default=None, help="TPS switch step (default: 0.9 T)")
+    multi.add_argument("--decoder", choices=["vq", "discord"], default="vq", help="token decoder (default: vq)")
+    for task in (rec, t2m, multi):
+        task.set_defaults(func=_evaluate)
+
+
+def _set_threads(threads: int | None) -> None:
+    import os
+
+    if threads is None and "MOTIONLAB_THREADS" in os.environ:
+        value = os.environ["MOTIONLAB_THREADS"]
+        try:
+            threads = int(value)
+        except ValueError:
+            raise ValueError(f"MOTIONLAB_THREADS must be a positive int, got {value!r}") from None
+    if threads is None:
+        return
+    if threads < 1:
+        raise ValueError(f"--threads must be a positive int, got {threads}")
+    import torch
+
+    torch.set_num_threads(threads)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="motionlab", description=__doc__.splitlines()[0])
+    parser.add_argument("--threads", type=int, default=None,
+                        help="torch CPU threads (default: $MOTIONLAB_THREADS, else torch's choice); 1 is often "
+                             "faster when other programs share the CPU")  # fmt: skip
     sub = parser.add_subparsers(dest="command", required=True)
 
     data = sub.add_parser("data", help="datasets: generate the embedded one, check a folder")
@@ -174,12 +290,15 @@ def build_parser() -> argparse.ArgumentParser:
     convert.add_argument("--end", type=int, default=None, help="frame to stop before, at 20 fps")
     convert.add_argument("--force", action="store_true", help="replace an existing output file")
     convert.set_defaults(func=_convert)
+
+    _add_evaluate(sub)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        _set_threads(args.threads)
         return args.func(args)
     except (ValueError, FileNotFoundError) as err:
         print(f"error: {err}", file=sys.stderr)

@@ -106,3 +106,19 @@ def test_train_every_model_kind(tmp_path, isolated_cache, capsys):
         assert f"{kind} (smoke" in capsys.readouterr().out
     cached = {p.name for p in (isolated_cache / "models").iterdir()}
     assert {"text_motion_evaluator", "discord", "rvq", "text_to_motion", "vq"} <= cached
+
+
+def test_threads_option_sets_torch_threads(monkeypatch, capsys):
+    import torch
+
+    before = torch.get_num_threads()
+    try:
+        assert main(["--threads", "1", "data", "check", "/nonexistent/folder"]) == 1
+        assert torch.get_num_threads() == 1
+        assert main(["--threads", "0", "data", "check", "/nonexistent/folder"]) == 2
+        assert "--threads must be a positive int" in capsys.readouterr().err
+        monkeypatch.setenv("MOTIONLAB_THREADS", "two")
+        assert main(["data", "check", "/nonexistent/folder"]) == 2
+        assert "MOTIONLAB_THREADS" in capsys.readouterr().err
+    finally:
+        torch.set_num_threads(before)

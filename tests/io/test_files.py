@@ -6,6 +6,9 @@ project was obtained from mocap.cs.cmu.edu. The database was created with fundin
 
 from __future__ import annotations
 
+import os
+import stat
+
 import numpy as np
 import pytest
 
@@ -70,3 +73,16 @@ def test_convert_cmu_take_to_its_humanml3d_features(shared_data, tmp_path):
         pytest.skip("CMU BVH takes not found")
     out = convert_motion(take, tmp_path / "001417.npy", start=10, end=208)
     assert np.load(out).shape == (197, 263)  # HumanML3D's clip 001417 is frames 10-208 of this take
+
+
+def test_atomic_writes_get_ordinary_file_permissions(tmp_path):
+    from motionlab.io.common import write_text_atomic
+
+    old = os.umask(0o022)
+    try:
+        path = write_text_atomic(tmp_path / "out.json", "{}\n")
+    finally:
+        os.umask(old)
+    assert path.read_text() == "{}\n"
+    assert stat.S_IMODE(path.stat().st_mode) == 0o644  # not mkstemp's owner-only 0600
+    assert [p.name for p in tmp_path.iterdir()] == ["out.json"]

@@ -64,6 +64,7 @@ def _replace_atomically(path: str | os.PathLike, mode: str, write: Callable) -> 
         raise ValueError(f"folder {str(path.parent)!r} of {str(path)!r} does not exist")
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes it owner-only; give it a normal file's permissions
         kwargs = {"encoding": "utf-8", "newline": "\n"} if "b" not in mode else {}
         with os.fdopen(fd, mode, **kwargs) as f:
             write(f)
@@ -73,6 +74,12 @@ def _replace_atomically(path: str | os.PathLike, mode: str, write: Callable) -> 
             os.unlink(tmp)
         raise
     return path
+
+
+def _umask() -> int:
+    mask = os.umask(0)  # the only portable way to read it is to set it
+    os.umask(mask)
+    return mask
 
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> Path:

@@ -1,0 +1,230 @@
+"""``motionlab evaluate``: the three paper tables on a tiny embedded dataset with smoke models.
+
+One 240-clip dataset (42 test clips: enough for R-precision's batches of 32) and one model cache serve the
+whole module, so every smoke model is trained once, by whichever test needs it first.
+"""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from motionlab.cli import main
+from motionlab.evaluation import EvaluationTable, repeat_seed, write_json
+from motionlab.metrics import Estimate
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory):
+    root = tmp_path_factory.mktemp("evaluate")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("MOTIONLAB_HOME", str(root / "motionlab-home"))
+        assert main(["data", "make-embedded", "--out", str(root / "data"), "--clips", "240"]) == 0
+        yield root / "data"
+
+
+def evaluate(task: str, data, *options: str) -> int:
+    return main(["evaluate", task, "--profile", "smoke", "--data", str(data), "--device", "cpu", *options])
+
+
+def read(path) -> dict:
+    return json.loads(path.read_text())
+
+
+def test_help_for_evaluate_and_every_task(capsys):
+    for argv in (["evaluate"], ["evaluate", "reconstruction"], ["evaluate", "t2m"], ["evaluate", "multi"]):
+        with pytest.raises(SystemExit) as exit_info:
+            main([*argv, "--help"])
+        assert exit_info.value.code == 0
+        out = capsys.readouterr().out
+        assert out.startswith(f"usage: motionlab {' '.join(argv)}")
+    assert "--decoder {vq,rvq,discord}" in main_help(["evaluate", "reconstruction"], capsys)
+    assert "--multimodality" in main_help(["evaluate", "t2m"], capsys)
+    assert "--methods" in main_help(["evaluate", "multi"], capsys)
+    assert "reconstruction" in main_help(["evaluate"], capsys)
+
+
+def main_help(argv, capsys) -> str:
+    with pytest.raises(SystemExit):
+        main([*argv, "--help"])
+    return capsys.readouterr().out
+
+
+def test_reconstruction_vq_json_equals_the_library_scores(data, tmp_path, capsys):
+    from motionlab.data import load_dataset
+    from motionlab.flow.reconstruction import decode_clips, reconstruction_scores
+    from motionlab.metrics.evaluator_training import load_or_train_evaluator
+    from motionlab.tokenizers import tokenizer_for_dataset
+
+    out = tmp_path / "vq.json"
+    assert evaluate("reconstruction", data, "--decoder", "vq", "--limit", "12", "--json", str(out)) == 0
+    stdout = capsys.readouterr().out.splitlines()
+    dataset = load_dataset(data)
+    assert stdout[0] == (f"evaluate reconstruction: profile smoke, data {dataset.key}, split test, 12 clips, "
+                         "2 repeats, seed 0")  # fmt: skip
+    assert "| VQ-VAE decoder (deterministic) |" in "\n".join(stdout)
+
+    # the same numbers, straight from the building blocks
+    clips = dataset.split("test")[:12]
+    tokenizer = tokenizer_for_dataset("vq", dataset, "smoke", device="cpu")
+    evaluator = load_or_train_evaluator(dataset, "smoke", device="cpu")
+    q = tokenizer.downsample
+    gt = [c.features[: len(c.features) // q * q] for c in clips]
+    recon = decode_clips([dataset.normalizer.normalize(c.features) for c in clips], tokenizer)
+    expected = reconstruction_scores([dataset.normalizer.denormalize(r) for r in recon], gt, evaluator.embed_motions)
+
+    result = read(out)
+    header = {k: result[k] for k in ("task", "profile", "data", "split", "repeats", "seed")}
+    assert header == dict(task="reconstruction", profile="smoke", data=dataset.key, split="test", repeats=2, seed=0)
+    assert result["config"]["decoder"] == "vq" and result["config"]["limit"] == 12
+    assert list(result["rows"]) == ["VQ-VAE decoder"] and result["deterministic"] == ["VQ-VAE decoder"]
+    row = result["rows"]["VQ-VAE decoder"]
+    assert set(row) == {"fid", "mpjpe_mm", "sjpe", "noise_sjpe", "static_sjpe"}
+    for metric, value in expected.as_dict().items():
+        assert row[metric] == {"mean": pytest.approx(value, rel=1e-9, abs=1e-12), "ci95": 0.0, "n": 1}
+    assert not [p for p in tmp_path.iterdir() if p.name != "vq.json"]  # no temporary file left behind
+
+
+def test_reconstruction_discord_repeats_spread_and_are_seeded(data, tmp_path, capsys):
+    args = ["--decoder", "discord", "--limit", "10", "--repeats", "2", "--steps", "2"]
+    a, b, c = tmp_path / "a.json", tmp_path / "b.json", tmp_path / "c.json"
+    assert evaluate("reconstruction", data, *args, "--seed", "3", "--json", str(a)) == 0
+    assert evaluate("reconstruction", data, *args, "--seed", "3", "--json", str(b)) == 0
+    assert evaluate("reconstruction", data, *args, "--seed", "4", "--json", str(c)) == 0
+    rows = read(a)["rows"]
+    flow = "RVQ-VAE tokens + DisCoRD (2 euler steps)"
+    assert list(rows) == ["RVQ-VAE decoder", flow]
+    assert all(rows[flow][m]["n"] == 2 for m in rows[flow])
+    assert rows[flow]["fid"]["ci95"] > 0 and rows[flow]["mpjpe_mm"]["ci95"] > 0  # two seeds, two decodes
+    assert read(b)["rows"] == rows  # the same seed, the same numbers
+    assert read(c)["rows"][flow]["mpjpe_mm"] != rows[flow]["mpjpe_mm"]
+    assert read(c)["rows"]["RVQ-VAE decoder"] == rows["RVQ-VAE decoder"]  # deterministic: the seed is unused
+    assert f"| {flow} |" in capsys.readouterr().out
+
+
+def test_t2m_prints_the_ground_truth_row_and_every_metric(data, capsys):
+    options = ["--limit", "32", "--repeats", "2", "--num-steps", "5", "--multimodality", "--mm-texts", "3",
+               "--mm-repeats", "10"]  # fmt: skip
+    assert evaluate("t2m", data, *options) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("evaluate t2m: profile smoke") and "32 clips" in lines[0] and "2 repeats" in lines[0]
+    header = lines[1]
+    for column in ("R-Top1", "R-Top2", "R-Top3", "FID", "MM-Dist", "Diversity", "MModality"):
+        assert column in header
+    truth = next(line for line in lines if line.startswith("| Ground Truth |"))
+    model = next(line for line in lines if line.startswith("| Discrete diffusion + VQ decoder |"))
+    assert truth.count("±") == 6 and truth.rstrip(" |").endswith("–")  # no MultiModality for real motions
+    assert model.count("±") == 7
+    fid_truth = float(truth.split("|")[5].split("±")[0])
+    fid_model = float(model.split("|")[5].split("±")[0])
+    assert abs(fid_truth) < 1e-3 < fid_model  # the real motions against themselves
+
+
+def test_multi_tps_and_independent(data, tmp_path, capsys):
+    out = tmp_path / "multi.json"
+    options = ["--methods", "tps,independent", "--instances", "3", "--repeats", "2", "--num-steps", "5"]
+    assert evaluate("multi", data, *options, "--json", str(out)) == 0
+    stdout = capsys.readouterr().out
+    assert "3 instances, 4 actions each" in stdout.splitlines()[0]
+    result = read(out)
+    assert list(result["rows"]) == ["Ground Truth (Single)", "Ground Truth (Concat)", "TPS (T_s = 90)",
+                                    "Independent (tokens concatenated)"]  # fmt: skip
+    assert result["config"]["methods"] == ["tps", "independent"] and result["counts"]["instances"] == 3
+    for label in ("TPS (T_s = 90)", "Independent (tokens concatenated)", "Ground Truth (Single)"):
+        row = result["rows"][label]
+        assert list(row) == result["metrics"]
+        assert all(row[m]["n"] == 2 and math.isfinite(row[m]["mean"]) for m in row)
+    concat = result["rows"]["Ground Truth (Concat)"]  # one deterministic Jerk value
+    assert list(concat) == ["jerk"] and concat["jerk"]["ci95"] == 0.0 and concat["jerk"]["n"] == 1
+    assert math.isfinite(concat["jerk"]["mean"])
+    assert "| Ground Truth (Concat) (deterministic) | – |" in stdout
+
+
+@pytest.mark.parametrize(
+    "task, options, message",
+    [
+        ("reconstruction", ["--repeats", "0"], "repeats must be an int >= 1"),
+        ("reconstruction", ["--limit", "1"], "limit must be an int >= 2"),
+        ("reconstruction", ["--decoder", "vq", "--tokenizer", "rvq"], "tokenizer= chooses the tokens"),
+        ("reconstruction", ["--decoder", "rvq", "--steps", "4"], "need decoder='discord'"),
+        ("reconstruction", ["--solver", "rk4"], "solver must be one of"),
+        ("t2m", ["--limit", "8"], "batches of 32"),
+        ("multi", ["--methods", "tps,warp"], "unknown method(s) ['warp']"),
+        ("multi", ["--actions", "1"], "actions must be an int >= 2"),
+    ],
+)
+def test_bad_options_exit_2_before_any_work(task, options, message, tmp_path, capsys):
+    # the data folder does not exist: an option error must be reported before the data is even opened
+    assert evaluate(task, tmp_path / "missing", *options) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_existing_json_is_never_overwritten_without_force(data, tmp_path, capsys):
+    out = tmp_path / "table.json"
+    out.write_text("{}")
+    assert evaluate("reconstruction", tmp_path / "missing", "--decoder", "vq", "--json", str(out)) == 2
+    assert "exists; pass force=True (--force)" in capsys.readouterr().err and out.read_text() == "{}"
+    assert evaluate("reconstruction", data, "--decoder", "vq", "--limit", "4", "--json", str(out), "--force") == 0
+    assert read(out)["rows"]["VQ-VAE decoder"]["fid"]["n"] == 1
+    assert evaluate("reconstruction", data, "--json", str(tmp_path / "nowhere" / "t.json")) == 2
+    assert "does not exist" in capsys.readouterr().err
+
+
+def test_failures_leave_nothing_behind(data, tmp_path, capsys):
+    out = tmp_path / "multi.json"
+    # 20 distinct action families do not exist in the tiny test split: fails after the data is loaded
+    assert evaluate("multi", data, "--actions", "20", "--json", str(out)) == 2
+    assert "distinct families" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+    assert evaluate("reconstruction", tmp_path / "missing") == 2
+    assert "does not exist" in capsys.readouterr().err
+
+
+def test_decoder_choices_are_checked_per_task(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["evaluate", "t2m", "--decoder", "rvq"])  # the diffusion model samples VQ tokens
+    assert exit_info.value.code == 2 and "invalid choice: 'rvq'" in capsys.readouterr().err
+
+
+def test_table_json_and_markdown(tmp_path):
+    rows = {"a": {"fid": Estimate(1.0, 0.5, 3), "jerk": Estimate(float("nan"), float("nan"), 3)},
+            "b": {"fid": Estimate(2.0, 0.0, 1)}}  # fmt: skip
+    table = EvaluationTable("multi", "smoke", "data-123", "test", 3, 7, {"x": 1}, {"clips": 5}, ("fid", "jerk"),
+                            rows, deterministic=("b",))  # fmt: skip
+    md = table.to_markdown(digits=2).splitlines()
+    assert md[0] == "| | FID ↓ | Jerk → |"
+    assert md[2] == "| a | 1.00 ± 0.50 | nan ± nan |" and md[3] == "| b (deterministic) | 2.00 | – |"
+    path = write_json(table, tmp_path / "t.json")
+    back = read(path)
+    assert back["rows"]["a"]["jerk"] == {"mean": None, "ci95": None, "n": 3}  # JSON has no NaN
+    assert back["rows"]["b"]["fid"] == {"mean": 2.0, "ci95": 0.0, "n": 1} and back["seed"] == 7
+    with pytest.raises(ValueError, match="exists"):
+        write_json(table, path)
+    with pytest.raises(ValueError, match=".json"):
+        write_json(table, tmp_path / "t.txt")
+    seeds = {repeat_seed(0, r, s) for r in range(50) for s in range(2)}
+    assert len(seeds) == 100 and all(0 <= x < 2**32 for x in seeds) and repeat_seed(5, 1) == repeat_seed(5, 1)
+    assert np.isfinite(list(seeds)).all()
+
+
+def test_configs_validate_and_name_their_tokens():
+    from motionlab.evaluation import (
+        MultiMotionConfig,
+        ReconstructionConfig,
+        TextToMotionConfig,
+        evaluate_multi,
+        evaluate_reconstruction,
+    )
+
+    assert ReconstructionConfig().tokenizer_kind == "rvq"  # DisCoRD on MoMask-style residual tokens
+    assert ReconstructionConfig(decoder="discord", tokenizer="vq").tokenizer_kind == "vq"  # T2M-GPT + DisCoRD
+    assert ReconstructionConfig(decoder="vq").tokenizer_kind == "vq"
+    with pytest.raises(ValueError, match="config must be a ReconstructionConfig"):
+        evaluate_reconstruction(None, TextToMotionConfig())
+    with pytest.raises(ValueError, match="fewer than the 2 transitions"):
+        MultiMotionConfig(instances=1, actions=2)
+    with pytest.raises(ValueError, match="dataset must be a MotionDataset"):
+        evaluate_multi(object(), MultiMotionConfig())
+    with pytest.raises(ValueError, match="mm_repeats must be an int >= 10"):
+        TextToMotionConfig(mm_repeats=5)
