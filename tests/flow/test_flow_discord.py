@@ -8,6 +8,7 @@ from torch import nn
 
 from motionlab.flow import DisCoRDConfig, DisCoRDDecoder, discord_config, discord_loss_fn, n_evaluations
 from motionlab.flow.rectified_flow import sample, sample_noise
+from motionlab.flow.training import noise_floor
 
 D, CODE, K, Q = 6, 8, 16, 4
 
@@ -204,6 +205,13 @@ def test_profiles_and_tokenizer_matching(profile):
     assert (cfg.feature_dim, cfg.code_dim, cfg.q, cfg.projection) == (D, CODE, Q, "repeat")
     assert 0 < cfg.warmup_steps < cfg.train_steps and cfg.window % cfg.q == 0
     assert cfg.to_dict()["lr"] == cfg.lr
+
+
+@pytest.mark.parametrize("profile", ["laptop", "full"])
+def test_result_profiles_see_all_of_the_noise(profile):
+    # a U-Net narrower than the features leaves part of the noise in every decoded frame (Chapter 05)
+    cfg = discord_config(profile)
+    assert cfg.width >= cfg.feature_dim and noise_floor(cfg) == 0.0
 
 
 def test_smoke_decoder_is_tiny():

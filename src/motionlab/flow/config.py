@@ -111,10 +111,12 @@ _PROFILES: dict[str, DisCoRDConfig] = {
         code_dim=16, cond_dim=16, width=16, sample_steps=4, solver="euler",
         window=16, batch_size=16, lr=1e-3, min_lr=1e-4, train_steps=60, warmup_steps=5, ema_decay=0.9,
     ),  # fmt: skip
-    # Small (1.1 M params): ≈ 0.08 s per step on 2 CPU cores, so ≈ 5 min; code width = the laptop tokenizer's.
+    # Small (11 M params). The width must be at least the 263 features, or part of every frame's noise never
+    # reaches the network and stays in the output (see noise_floor); two levels at one width keep the cost to
+    # ≈ 0.36 s per step on one CPU core (≈ 0.19 s on two idle ones), so ≈ 24 min. Code width = the laptop tokenizer's.
     "laptop": DisCoRDConfig(
-        code_dim=64, cond_dim=64, width=64, sample_steps=8, solver="midpoint",
-        window=64, batch_size=64, lr=1e-3, min_lr=1e-5, train_steps=4000, warmup_steps=200, ema_decay=0.995,
+        code_dim=64, cond_dim=64, width=272, width_mults=(1, 1), sample_steps=8, solver="midpoint",
+        window=64, batch_size=32, lr=1e-3, min_lr=1e-5, train_steps=4000, warmup_steps=200, ema_decay=0.995,
     ),  # fmt: skip
     # The paper (Table A) and the public code.
     "full": DisCoRDConfig(),
