@@ -82,11 +82,12 @@ class EvaluationTable:
     def header(self) -> str:
         """One line: task, profile, dataset key, what was evaluated, repeats and seed."""
         counts = ", ".join(f"{n} {what}" for what, n in self.counts.items())
+        repeats = f"{self.repeats} repeat{'s' if self.repeats != 1 else ''}"
         return (f"evaluate {self.task}: profile {self.profile}, data {self.data}, split {self.split}, {counts}, "
-                f"{self.repeats} repeats, seed {self.seed}")  # fmt: skip
+                f"{repeats}, seed {self.seed}")  # fmt: skip
 
     def to_markdown(self, digits: int = 3) -> str:
-        """A Markdown table, ``mean ± half-width`` per cell (the mean alone in deterministic rows)."""
+        """A Markdown table, ``mean ± half-width`` per cell (the mean alone in deterministic or one-run rows)."""
         lines = ["| | " + " | ".join(METRIC_LABELS.get(m, m) for m in self.metrics) + " |",
                  "|---|" + "---:|" * len(self.metrics)]  # fmt: skip
         for name, row in self.rows.items():
@@ -107,7 +108,8 @@ class EvaluationTable:
 
 
 def _cell(e: Estimate, digits: int, fixed: bool) -> str:
-    return f"{e.mean:.{digits}f}" if fixed else f"{e.mean:.{digits}f} ± {e.half_width:.{digits}f}"
+    # one run has no spread to report: print its value alone rather than a "± 0" that looks measured
+    return f"{e.mean:.{digits}f}" if fixed or e.n < 2 else f"{e.mean:.{digits}f} ± {e.half_width:.{digits}f}"
 
 
 def _finite(x: float) -> float | None:

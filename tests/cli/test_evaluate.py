@@ -203,6 +203,10 @@ def test_table_json_and_markdown(tmp_path):
         write_json(table, path)
     with pytest.raises(ValueError, match=".json"):
         write_json(table, tmp_path / "t.txt")
+    one_run = EvaluationTable("t2m", "smoke", "d", "test", 1, 0, {}, {"clips": 32}, ("fid",),
+                              {"model": {"fid": Estimate(3.0, 0.0, 1)}})  # fmt: skip
+    assert one_run.to_markdown(digits=1).splitlines()[2] == "| model | 3.0 |"  # no "± 0" from a single run
+    assert "32 clips, 1 repeat, seed 0" in one_run.header()
     seeds = {repeat_seed(0, r, s) for r in range(50) for s in range(2)}
     assert len(seeds) == 100 and all(0 <= x < 2**32 for x in seeds) and repeat_seed(5, 1) == repeat_seed(5, 1)
     assert np.isfinite(list(seeds)).all()
