@@ -48,14 +48,13 @@ stays easy.
 from __future__ import annotations
 
 import inspect
-import os
 import random
 import re
 import textwrap
 
 import numpy as np
 
-from motionlab.profiles import get_profile
+from motionlab.profiles import env_threads, get_profile
 
 # Small, crisp figures: a book page is ~700 px wide and the site must stay light.
 RC_PARAMS = {
@@ -99,10 +98,7 @@ def setup(seed: int = 0, profile: str | None = None, threads: int | None = None)
     import torch  # local: importing motionlab.book should not pay for torch when unused
 
     torch.manual_seed(int(seed))
-    n_threads = threads if threads is not None else int(os.environ.get("MOTIONLAB_THREADS", "1"))
-    if n_threads < 1:
-        raise ValueError(f"MOTIONLAB_THREADS must be a positive int, got {n_threads}")
-    torch.set_num_threads(n_threads)
+    torch.set_num_threads(threads if threads is not None else (env_threads() or 1))
 
     import matplotlib as mpl
 

@@ -214,14 +214,10 @@ def _add_evaluate(sub) -> None:
 
 
 def _set_threads(threads: int | None) -> None:
-    import os
+    from .profiles import env_threads
 
-    if threads is None and "MOTIONLAB_THREADS" in os.environ:
-        value = os.environ["MOTIONLAB_THREADS"]
-        try:
-            threads = int(value)
-        except ValueError:
-            raise ValueError(f"MOTIONLAB_THREADS must be a positive int, got {value!r}") from None
+    if threads is None:
+        threads = env_threads()  # None: leave torch's own choice
     if threads is None:
         return
     if threads < 1:

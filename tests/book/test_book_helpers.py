@@ -40,6 +40,13 @@ def test_setup_validates(kwargs, match):
         book.setup(**kwargs)
 
 
+@pytest.mark.parametrize("value", ["0", "two"])
+def test_setup_rejects_a_bad_threads_variable(monkeypatch, value):
+    monkeypatch.setenv("MOTIONLAB_THREADS", value)
+    with pytest.raises(ValueError, match="MOTIONLAB_THREADS must be a positive int"):
+        book.setup(seed=0)
+
+
 def test_show_source_gives_highlightable_library_code():
     code = book.show_source(results.Less.judge)  # a method: the source comes back dedented
     assert code.language == "python" and code.data.startswith("def judge(")
