@@ -25,7 +25,7 @@ test: $(STAMP)
 	MOTIONLAB_PROFILE=smoke $(BIN)/python -m pytest --nbval-lax --nbval-current-env
 
 lint: $(STAMP)
-	$(BIN)/ruff check src tests benchmarks tools
+	$(BIN)/ruff check src tests benchmarks tools experiments
 
 clean:
 	rm -rf _build

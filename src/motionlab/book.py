@@ -51,6 +51,7 @@ import inspect
 import random
 import re
 import textwrap
+from pathlib import Path
 
 import numpy as np
 
@@ -104,6 +105,18 @@ def setup(seed: int = 0, profile: str | None = None, threads: int | None = None)
 
     mpl.rcParams.update(RC_PARAMS)
     return profile
+
+
+def repository_path(*parts: str) -> Path:
+    """A file or folder of the book's repository (e.g. ``"book", "data", "discord_sweep"``: results measured
+    once and committed), found from the working directory upwards, so a chapter finds it wherever it runs."""
+    here = Path.cwd().resolve()
+    for folder in (here, *here.parents):
+        candidate = folder.joinpath(*parts)
+        if candidate.exists():
+            return candidate
+    raise FileNotFoundError(f"{Path(*parts)} not found in {here} or any folder above it: run the chapter inside "
+                            "the book's repository")  # fmt: skip
 
 
 def show_source(obj: object):

@@ -48,15 +48,21 @@ def _train(args: argparse.Namespace) -> int:
     ctx = init_distributed()  # a no-op unless launched by torchrun
     profile = get_profile(args.profile)
     dataset = load_dataset(args.data, profile=profile)
-    model = _trained_model(args.model, dataset, profile, args.device)
+    flow_options = {k: getattr(args, k) for k in ("prediction", "normalization", "time_distribution")
+                    if getattr(args, k) is not None}  # fmt: skip
+    if flow_options and args.model != "discord":
+        raise ValueError(f"{', '.join(flow_options)} configure the DisCoRD decoder; they need the model 'discord'")
+    model = _trained_model(args.model, dataset, profile, args.device, flow_options)
     n_params = sum(p.numel() for p in model.parameters())
     if ctx.is_main:
         print(f"{args.model} ({profile}, data {dataset.key}): {n_params / 1e6:.2f} M parameters, trained and cached")
     return 0
 
 
-def _trained_model(name: str, dataset, profile: str, device: str | None):
-    """The cached model ``name`` of the book for this dataset and profile (trained on first use)."""
+def _trained_model(name: str, dataset, profile: str, device: str | None, flow_options: dict | None = None):
+    """The cached model ``name`` of the book for this dataset and profile (trained on first use).
+
+    ``flow_options`` (DisCoRD only) override the profile's decoder config, e.g. ``{"prediction": "x"}``."""
     from .tokenizers import tokenizer_for_dataset
 
     if name in ("vq", "rvq"):
@@ -66,10 +72,11 @@ def _trained_model(name: str, dataset, profile: str, device: str | None):
 
         return load_or_train_evaluator(dataset, profile, device=device).networks
     if name == "discord":
-        from .flow import train_or_load_discord
+        from .flow import discord_config, train_or_load_discord
 
-        return train_or_load_discord(dataset, tokenizer_for_dataset("rvq", dataset, profile, device=device), profile,
-                                     device=device)  # fmt: skip
+        tokenizer = tokenizer_for_dataset("rvq", dataset, profile, device=device)
+        config = discord_config(profile, tokenizer=tokenizer, **(flow_options or {}))
+        return train_or_load_discord(dataset, tokenizer, profile, config=config, device=device)
     from .diffusion.pipeline import text_to_motion_for_dataset
 
     return text_to_motion_for_dataset(dataset, profile, device=device).model
@@ -138,12 +145,13 @@ def _evaluate(args: argparse.Namespace) -> int:
 
 def _evaluation_config(args: argparse.Namespace, repeats: int):
     """The task's config from the parsed options (the config validates them)."""
-    from .evaluation import MultiMotionConfig, ReconstructionConfig, TextToMotionConfig
+    from .evaluation import FLOW_OPTIONS, MultiMotionConfig, ReconstructionConfig, TextToMotionConfig
 
     common = dict(split=args.split, repeats=repeats, seed=args.seed, decoder=args.decoder, steps=args.steps,
                   solver=args.solver)  # fmt: skip
     if args.task == "reconstruction":
-        return ReconstructionConfig(tokenizer=args.tokenizer, limit=args.limit, **common)
+        flow = {name: getattr(args, name) for name in FLOW_OPTIONS}
+        return ReconstructionConfig(tokenizer=args.tokenizer, limit=args.limit, **flow, **common)
     sampling = dict(num_steps=args.num_steps, guidance_scale=args.guidance_scale)
     if args.task == "t2m":
         return TextToMotionConfig(limit=args.limit, multimodality=args.multimodality, mm_texts=args.mm_texts,
@@ -151,6 +159,16 @@ def _evaluation_config(args: argparse.Namespace, repeats: int):
     methods = tuple(m.strip() for m in args.methods.split(","))
     return MultiMotionConfig(methods=methods, instances=args.instances, actions=args.actions, T_s=args.T_s,
                              **sampling, **common)  # fmt: skip
+
+
+def _add_flow_training_options(parser: argparse.ArgumentParser) -> None:
+    """Which DisCoRD decoder: options fixed at training time (default: the profile's)."""
+    parser.add_argument("--predict", dest="prediction", choices=["v", "x"], default=None,
+                        help="DisCoRD: the network predicts the velocity (v, the paper's) or the clean motion (x)")
+    parser.add_argument("--normalization", choices=["std", "feat_bias"], default=None,
+                        help="DisCoRD: plain std, or the public code's root/contact weighting (feat_bias)")
+    parser.add_argument("--time-distribution", dest="time_distribution", choices=["uniform", "logit_normal"],
+                        default=None, help="DisCoRD training times (default: the profile's)")  # fmt: skip
 
 
 def _add_evaluate(sub) -> None:
@@ -186,6 +204,13 @@ def _add_evaluate(sub) -> None:
     rec.add_argument("--tokenizer", choices=["vq", "rvq"], default=None,
                      help="with --decoder discord: whose tokens DisCoRD decodes (default: rvq)")  # fmt: skip
     rec.add_argument("--limit", type=int, default=None, help="score only the first K clips of the split")
+    _add_flow_training_options(rec)
+    rec.add_argument("--temperature", type=float, default=None,
+                     help="DisCoRD start-noise scale (default: the profile's; the paper samples at 1)")  # fmt: skip
+    rec.add_argument("--spacing", choices=["uniform", "data_dense"], default=None,
+                     help="DisCoRD time grid (default: the profile's)")  # fmt: skip
+    rec.add_argument("--final-prediction", dest="final_prediction", action="store_true", default=None,
+                     help="x-prediction decoders: return the network's x̂1 at the last step")  # fmt: skip
 
     t2m = tasks.add_parser("t2m", parents=[common, flow, sampling], help="text to motion: R-precision, FID, ...",
                            description="The text-to-motion protocol: R-precision top 1-3, FID, MM-Dist, "
@@ -255,6 +280,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="model size (default: $MOTIONLAB_PROFILE or laptop)")  # fmt: skip
     train.add_argument("--data", default=None, help="a HumanML3D/KIT-ML folder (default: the embedded dataset)")
     train.add_argument("--device", default=None, help="cpu, cuda, cuda:1 ... (default: CUDA when present)")
+    _add_flow_training_options(train)
     train.set_defaults(func=_train)
 
     gen = sub.add_parser(

@@ -1,7 +1,8 @@
 """The papers' evaluation tables, computed end to end from a dataset and the book's cached models.
 
 Three tasks, one function each; every one returns an :class:`EvaluationTable` (rows × metrics, each cell a
-:class:`~motionlab.metrics.Estimate`: mean, 95 % half-width ``1.96·std/√n``, n runs):
+:class:`~motionlab.metrics.Estimate`: mean, 95 % half-width from Student's t with n − 1 degrees of freedom,
+n runs):
 
 ==================  =========================================================================================
 task                what is measured
@@ -42,14 +43,16 @@ SPLITS = ("train", "val", "test")
 DEFAULT_REPEATS = {"smoke": 2, "laptop": 5, "full": 20}  # the papers use 20
 R_PRECISION_BATCH = 32  # the T2M protocol ranks each text among 32 motions
 
-RECONSTRUCTION_METRICS = ("fid", "mpjpe_mm", "sjpe", "noise_sjpe", "static_sjpe")
+RECONSTRUCTION_METRICS = ("fid", "mpjpe_mm", "sjpe", "noise_sjpe", "static_sjpe", "sjpe_ratio")
 T2M_METRICS = ("top1", "top2", "top3", "fid", "mm_dist", "diversity", "multimodality")
 MULTI_METRICS = ("r_top3", "fid", "mm_dist", "diversity", "transition_fid", "transition_diversity", "jerk")
 
 # Column headers as the papers print them (↓ lower is better, ↑ higher, → closer to the real data).
 METRIC_LABELS = {
     "fid": "FID ↓", "mpjpe_mm": "MPJPE (mm) ↓", "sjpe": "sJPE ↓", "noise_sjpe": "Noise sJPE ↓",
-    "static_sjpe": "Static sJPE ↓", "top1": "R-Top1 ↑", "top2": "R-Top2 ↑", "top3": "R-Top3 ↑", "r_top3": "R-Top3 ↑",
+    "static_sjpe": "Static sJPE ↓", "sjpe_ratio": "sJPE (ratio, paper scale) ↓",
+    "noise_sjpe_ratio": "Noise sJPE (ratio) ↓", "static_sjpe_ratio": "Static sJPE (ratio) ↓",
+    "top1": "R-Top1 ↑", "top2": "R-Top2 ↑", "top3": "R-Top3 ↑", "r_top3": "R-Top3 ↑",
     "mm_dist": "MM-Dist ↓", "diversity": "Diversity →", "multimodality": "MModality ↑",
     "transition_fid": "Transition FID ↓", "transition_diversity": "Transition Diversity →", "jerk": "Jerk →",
 }  # fmt: skip
@@ -95,7 +98,8 @@ class EvaluationTable:
             cells = [_cell(row[m], digits, fixed) if m in row else "–" for m in self.metrics]
             label = f"{name} (deterministic)" if fixed else name
             lines.append(f"| {label} | " + " | ".join(cells) + " |")
-        return "\n".join(lines + [f"\n{note}" for note in self.notes])
+        interval = "± = 95% interval of the mean, Student's t with n − 1 degrees of freedom."
+        return "\n".join(lines + [f"\n{note}" for note in [*self.notes, interval]])
 
     def to_json_dict(self) -> dict[str, Any]:
         """Plain JSON types; a non-finite number becomes ``null`` (JSON has no NaN)."""
@@ -157,9 +161,16 @@ def _check_common(cfg: Any, min_limit: int, why: str = "") -> None:
 
 
 def _check_flow_options(cfg: Any, uses_flow: bool) -> None:
-    """``steps``/``solver`` configure the DisCoRD ODE; refuse them where no flow decoder runs."""
+    """``steps``/``solver`` (and the decoder options) configure DisCoRD; refuse them where no flow decoder runs."""
     if not uses_flow and (cfg.steps is not None or cfg.solver is not None):
         raise ValueError("steps and solver set the DisCoRD decoder's ODE; they need decoder='discord'")
+    chosen = [name for name in FLOW_OPTIONS if getattr(cfg, name, None) is not None]
+    if not uses_flow and chosen:
+        raise ValueError(f"{', '.join(chosen)} configure the DisCoRD decoder; they need decoder='discord'")
+    if chosen:
+        from motionlab.flow import DisCoRDConfig
+
+        DisCoRDConfig(**{name: getattr(cfg, name) for name in chosen})  # validates each value
     if cfg.steps is not None:
         _check_int("steps", cfg.steps, 1)
     if cfg.solver is not None:
@@ -169,16 +180,30 @@ def _check_flow_options(cfg: Any, uses_flow: bool) -> None:
             raise ValueError(f"solver must be one of {SOLVERS}, got {cfg.solver!r}")
 
 
+# DisCoRD decoder options a reconstruction can choose (None: the profile's): which trained decoder, then how it samples.
+FLOW_TRAINING_OPTIONS = ("prediction", "normalization", "time_distribution")
+FLOW_SAMPLING_OPTIONS = ("temperature", "spacing", "final_prediction")
+FLOW_OPTIONS = FLOW_TRAINING_OPTIONS + FLOW_SAMPLING_OPTIONS
+
+
 @dataclass(frozen=True)
 class ReconstructionConfig:
     """DisCoRD Table 1. ``decoder``: ``"vq"``/``"rvq"`` (that tokenizer's feed-forward decoder alone) or
     ``"discord"`` (the feed-forward row and the DisCoRD row, both on ``tokenizer``'s ids; default ``"rvq"``
-    as MoMask + DisCoRD, ``"vq"`` gives T2M-GPT + DisCoRD). ``repeats`` applies to the DisCoRD row only."""
+    as MoMask + DisCoRD, ``"vq"`` gives T2M-GPT + DisCoRD). ``repeats`` applies to the DisCoRD row only.
+    ``prediction``/``normalization``/``time_distribution`` choose (and train on first use) a decoder other than
+    the profile's; ``temperature``/``spacing``/``final_prediction`` change only how it samples."""
 
     decoder: str = "discord"
     tokenizer: str | None = None
     steps: int | None = None  # ODE intervals (None: the decoder's config)
     solver: str | None = None  # "euler" | "midpoint" (None: the decoder's config)
+    prediction: str | None = None  # "v" | "x"
+    normalization: str | None = None  # "std" | "feat_bias"
+    time_distribution: str | None = None  # "uniform" | "logit_normal"
+    temperature: float | None = None  # start-noise scale
+    spacing: str | None = None  # "uniform" | "data_dense"
+    final_prediction: bool | None = None  # x-prediction: return x̂1 at the last step
     split: str = "test"
     limit: int | None = None  # the first `limit` clips of the split
     repeats: int = 1
@@ -339,6 +364,24 @@ def _flow_label(decoder: Any, steps: int | None, solver: str | None) -> str:
     return f"{cfg.sample_steps if steps is None else steps} {cfg.solver if solver is None else solver} steps"
 
 
+def _flow_options_label(decoder: Any) -> str:
+    """``", x-prediction, temperature 0.5"``: what sets this decoder apart from the paper's (or "")."""
+    cfg, parts = decoder.config, []
+    if cfg.prediction != "v":
+        parts.append(f"{cfg.prediction}-prediction")
+    if cfg.normalization != "feat_bias":
+        parts.append(f"{cfg.normalization} normalisation")
+    if cfg.time_distribution != "uniform":
+        parts.append(f"{cfg.time_distribution} times")
+    if cfg.temperature != 1.0:
+        parts.append(f"temperature {cfg.temperature:g}")
+    if cfg.spacing != "uniform":
+        parts.append(f"{cfg.spacing} grid")
+    if cfg.final_prediction:
+        parts.append("last step x̂1")
+    return "".join(", " + p for p in parts)
+
+
 def _pipeline_and_decoder(dataset, cfg, profile: str, device, progress: bool):
     """The cached diffusion model, the evaluator, and the DisCoRD decoder of its VQ tokens (or None)."""
     from motionlab.diffusion.pipeline import text_to_motion_for_dataset
@@ -408,9 +451,15 @@ def evaluate_reconstruction(dataset, config: ReconstructionConfig | None = None,
     rows = {feed_forward: _once(score(decode_clips(normalized, tokenizer)))}
     notes = ["The feed-forward decoder is deterministic: one run, no interval."]
     if cfg.decoder == "discord":
-        from motionlab.flow import train_or_load_discord
+        from motionlab.flow import discord_config, train_or_load_discord
 
-        flow = train_or_load_discord(dataset, tokenizer, profile, device=device, progress=progress)
+        chosen = {name: getattr(cfg, name) for name in FLOW_OPTIONS if getattr(cfg, name) is not None}
+        training = {k: v for k, v in chosen.items() if k in FLOW_TRAINING_OPTIONS}
+        flow_config = discord_config(profile, tokenizer=tokenizer, **training)
+        flow = train_or_load_discord(dataset, tokenizer, profile, config=flow_config, device=device,
+                                     progress=progress)  # fmt: skip
+        sampling = {k: v for k, v in chosen.items() if k in FLOW_SAMPLING_OPTIONS}
+        flow = flow.with_sampling(**sampling) if sampling else flow
         runs = []
         with _bar(cfg.repeats, "DisCoRD repeats", progress) as bar:
             for r in range(cfg.repeats):
@@ -418,7 +467,8 @@ def evaluate_reconstruction(dataset, config: ReconstructionConfig | None = None,
                                      seed=repeat_seed(cfg.seed, r))  # fmt: skip
                 runs.append(score(recon))
                 bar.update()
-        rows[f"{name} tokens + DisCoRD ({_flow_label(flow, cfg.steps, cfg.solver)})"] = summarize_runs(runs)
+        rows[f"{name} tokens + DisCoRD ({_flow_label(flow, cfg.steps, cfg.solver)}{_flow_options_label(flow)})"] = (
+            summarize_runs(runs))
         notes.append(f"DisCoRD: {cfg.repeats} sampling seeds.")
     return _table("reconstruction", dataset, profile, cfg, {"clips": len(clips)}, RECONSTRUCTION_METRICS, rows,
                   deterministic=(feed_forward,), notes=[" ".join(notes)])  # fmt: skip

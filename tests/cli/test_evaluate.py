@@ -80,7 +80,8 @@ def test_reconstruction_vq_json_equals_the_library_scores(data, tmp_path, capsys
     assert result["config"]["decoder"] == "vq" and result["config"]["limit"] == 12
     assert list(result["rows"]) == ["VQ-VAE decoder"] and result["deterministic"] == ["VQ-VAE decoder"]
     row = result["rows"]["VQ-VAE decoder"]
-    assert set(row) == {"fid", "mpjpe_mm", "sjpe", "noise_sjpe", "static_sjpe"}
+    assert set(row) == {"fid", "mpjpe_mm", "sjpe", "noise_sjpe", "static_sjpe", "sjpe_ratio", "noise_sjpe_ratio",
+                        "static_sjpe_ratio", "joint_jerk"}
     for metric, value in expected.as_dict().items():
         assert row[metric] == {"mean": pytest.approx(value, rel=1e-9, abs=1e-12), "ci95": 0.0, "n": 1}
     assert not [p for p in tmp_path.iterdir() if p.name != "vq.json"]  # no temporary file left behind
@@ -101,6 +102,37 @@ def test_reconstruction_discord_repeats_spread_and_are_seeded(data, tmp_path, ca
     assert read(c)["rows"][flow]["mpjpe_mm"] != rows[flow]["mpjpe_mm"]
     assert read(c)["rows"]["RVQ-VAE decoder"] == rows["RVQ-VAE decoder"]  # deterministic: the seed is unused
     assert f"| {flow} |" in capsys.readouterr().out
+
+
+def test_reconstruction_chooses_the_flow_decoders_parameterisation_and_sampling(data, tmp_path, capsys):
+    base = ["--decoder", "discord", "--limit", "10", "--repeats", "2", "--steps", "2"]
+    x, cold = tmp_path / "x.json", tmp_path / "cold.json"
+    assert evaluate("reconstruction", data, *base, "--predict", "x", "--final-prediction", "--json", str(x)) == 0
+    assert evaluate("reconstruction", data, *base, "--predict", "x", "--final-prediction", "--temperature", "0",
+                    "--json", str(cold)) == 0  # fmt: skip
+    flow_x = "RVQ-VAE tokens + DisCoRD (2 euler steps, x-prediction, last step x̂1)"
+    assert list(read(x)["rows"])[1] == flow_x
+    assert read(x)["config"]["prediction"] == "x" and read(x)["config"]["temperature"] is None
+    cold_row = read(cold)["rows"]["RVQ-VAE tokens + DisCoRD (2 euler steps, x-prediction, temperature 0, last step x̂1)"]
+    assert cold_row["mpjpe_mm"]["ci95"] == 0.0  # no start noise: both seeds decode the same motion
+    capsys.readouterr()
+
+
+@pytest.mark.parametrize("options,message", [
+    (["--decoder", "rvq", "--temperature", "0.5"], "need decoder='discord'"),
+    (["--decoder", "vq", "--predict", "x"], "need decoder='discord'"),
+    (["--decoder", "discord", "--final-prediction"], "prediction='x'"),
+    (["--decoder", "discord", "--temperature", "-1"], "temperature"),
+])  # fmt: skip
+def test_reconstruction_rejects_flow_options_that_cannot_apply(data, capsys, options, message):
+    assert evaluate("reconstruction", data, *options) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_train_refuses_flow_options_for_other_models(data, capsys):
+    args = ["train", "vq", "--profile", "smoke", "--data", str(data), "--predict", "x"]
+    assert main(args) == 2
+    assert "need the model 'discord'" in capsys.readouterr().err
 
 
 def test_t2m_prints_the_ground_truth_row_and_every_metric(data, capsys):

@@ -81,7 +81,88 @@ def test_decode_equals_the_sampler_on_projected_conditions():
         cond = dec.condition(z)
         x0 = sample_noise((2, 20, D), torch.Generator().manual_seed(3))
         expected = sample(dec.unet, x0, 4, "midpoint", cond)
-    torch.testing.assert_close(dec.decode(ids(), tokenizer=tok, steps=4, solver="midpoint", seed=3), expected)
+    # the default (feat_bias) decoder samples in its own space, ×25 on the root/contact dims
+    scale = torch.ones(D)
+    scale[:4], scale[-4:] = 25.0, 25.0
+    torch.testing.assert_close(dec.decode(ids(), tokenizer=tok, steps=4, solver="midpoint", seed=3), expected / scale)
+    plain = decoder(normalization="std")
+    plain.load_state_dict({k: v for k, v in dec.state_dict().items() if k != "_extra_state"}, strict=False)
+    with torch.no_grad():
+        torch.testing.assert_close(plain.decode(ids(), tokenizer=tok, steps=4, solver="midpoint", seed=3), expected)
+
+
+# ----------------------------------------------------------------------------- parameterisation options
+
+
+def test_x_prediction_decoder_samples_with_the_implied_velocity():
+    from motionlab.flow.rectified_flow import velocity_from_data
+
+    tok = FakeTokenizer()
+    dec = decoder(prediction="x", normalization="std")
+    z = tok.embed(ids())
+    with torch.no_grad():
+        cond = dec.condition(z)
+        x0 = sample_noise((2, 20, D), torch.Generator().manual_seed(3))
+        expected = sample(lambda x, t, c: velocity_from_data(dec.unet(x, t, c), x, t), x0, 3, "euler", cond)
+        torch.testing.assert_close(dec.decode(ids(), tokenizer=tok, seed=3), expected)
+
+
+def test_temperature_scales_the_start_noise():
+    tok = FakeTokenizer()
+    dec = decoder(normalization="std").attach(tok)
+    cold = [dec.decode(ids(), seed=s, temperature=0.0) for s in (1, 2)]
+    assert torch.equal(cold[0], cold[1])  # no noise: the seed no longer matters
+    assert not torch.equal(dec.decode(ids(), seed=1), dec.decode(ids(), seed=2))
+    warm = decoder(normalization="std", temperature=0.0).attach(tok)
+    warm.load_state_dict(dec.state_dict())  # temperature is a sampling default, not part of the weights' meaning
+    torch.testing.assert_close(warm.decode(ids(), seed=9), cold[0])  # the config's default temperature
+    with torch.no_grad():
+        cond = dec.condition(tok.embed(ids()))
+        x0 = 0.5 * sample_noise((2, 20, D), torch.Generator().manual_seed(4))
+        torch.testing.assert_close(dec.decode(ids(), seed=4, temperature=0.5), sample(dec.unet, x0, 3, "euler", cond))
+    with pytest.raises(ValueError, match="temperature"):
+        dec.decode(ids(), temperature=-1.0)
+
+
+def test_final_prediction_returns_the_networks_own_estimate():
+    tok = FakeTokenizer()
+    dec = decoder(prediction="x", normalization="std", final_prediction=True).attach(tok)
+    calls = []
+    handle = dec.unet.register_forward_hook(lambda *_: calls.append(1))
+    dec.decode(ids(), steps=3, solver="midpoint")
+    handle.remove()
+    assert len(calls) == 2 * 2 + 1  # two midpoint intervals, then one call for x̂1
+    with pytest.raises(ValueError, match="prediction='x'"):
+        small_config(final_prediction=True)
+
+
+def test_feature_scale_round_trips_and_weighs_root_and_contacts():
+    dec = decoder()
+    motion = torch.randn(2, 16, D, generator=torch.Generator().manual_seed(0))
+    torch.testing.assert_close(dec.from_model_space(dec.to_model_space(motion)), motion)
+    assert dec.to_model_space(torch.ones(1, 4, 263 if D == 263 else D)).flatten()[[0, 3, -1]].tolist() == [25.0] * 3
+    assert torch.equal(decoder(normalization="std").to_model_space(motion), motion)
+
+
+@pytest.mark.parametrize("saved,loaded", [({"prediction": "v"}, {"prediction": "x"}),
+                                          ({"prediction": "x"}, {"prediction": "v"}),
+                                          ({"normalization": "std"}, {"normalization": "feat_bias"})])
+def test_weights_refuse_to_load_under_another_parameterisation(tmp_path, saved, loaded):
+    from motionlab.train.checkpoint import load_weights, save_weights
+
+    save_weights(decoder(**saved).state_dict(), tmp_path / "w.safetensors")
+    load_weights(decoder(**saved), tmp_path / "w.safetensors")  # the same interpretation loads
+    with pytest.raises(ValueError, match="trained with"):
+        load_weights(decoder(**loaded), tmp_path / "w.safetensors")
+
+
+def test_weights_without_a_parameterisation_record_are_refused(tmp_path):
+    from motionlab.train.checkpoint import load_weights, save_weights
+
+    state = {k: v for k, v in decoder().state_dict().items() if k != "_extra_state"}
+    save_weights(state, tmp_path / "old.safetensors")
+    with pytest.raises(ValueError, match="do not fit"):
+        load_weights(decoder(), tmp_path / "old.safetensors")
 
 
 @pytest.mark.parametrize("steps,solver", [(2, "euler"), (3, "midpoint"), (None, None)])
@@ -209,9 +290,11 @@ def test_profiles_and_tokenizer_matching(profile):
 
 @pytest.mark.parametrize("profile", ["laptop", "full"])
 def test_result_profiles_see_all_of_the_noise(profile):
-    # a U-Net narrower than the features leaves part of the noise in every decoded frame (Chapter 05)
+    # a velocity U-Net narrower than the features leaves part of the noise in every decoded frame (Chapter 05);
+    # an x-predicting one does not need the width
     cfg = discord_config(profile)
-    assert cfg.width >= cfg.feature_dim and noise_floor(cfg) == 0.0
+    assert noise_floor(cfg) == 0.0
+    assert cfg.width >= cfg.feature_dim or cfg.prediction == "x"
 
 
 def test_smoke_decoder_is_tiny():
@@ -230,6 +313,14 @@ def test_config_rejects_bad_values():
         small_config(window=18)
     with pytest.raises(ValueError, match="solver"):
         small_config(solver="rk4")
+    for field, value in (("prediction", "eps"), ("normalization", "minmax"), ("time_distribution", "beta"),
+                         ("spacing", "cosine")):  # fmt: skip
+        with pytest.raises(ValueError, match=field):
+            small_config(**{field: value})
+    with pytest.raises(ValueError, match="temperature"):
+        small_config(temperature=float("nan"))
+    with pytest.raises(ValueError, match="time_scale"):
+        small_config(time_scale=0.0)
 
 
 def test_initial_weights_are_a_function_of_the_config():

@@ -176,3 +176,77 @@ def test_sampler_rejects_bad_settings():
         ODESolver(2, "heun")
     with pytest.raises(ValueError, match="x0"):
         sample(lambda x, t, c: x, [0.0], 2, "euler")
+
+
+# ----------------------------------------------------------------------------- parameterisations
+
+
+def test_x_prediction_implies_the_target_velocity_on_exact_data():
+    from motionlab.flow.rectified_flow import X_PREDICTION_MIN_GAP, velocity_from_data
+
+    x0 = torch.randn(64, 7, generator=gen(1), dtype=torch.float64)
+    x1 = torch.randn(64, 7, generator=gen(2), dtype=torch.float64)
+    t = torch.linspace(0.0, 1.0 - X_PREDICTION_MIN_GAP, 64, dtype=torch.float64)
+    x_t = interpolate(x0, x1, t)
+    torch.testing.assert_close(velocity_from_data(x1, x_t, t), target_velocity(x0, x1), rtol=1e-12, atol=1e-12)
+    # an x-predictor that returns the data itself (passed in as cond) has zero loss where 1 − t is unclamped
+    exact = flow_matching_loss(lambda x, tt, c: c, x1, x1, gen(0), prediction="x",
+                               time_distribution="logit_normal", time_loc=-3.0, time_scale=0.3)  # t < 0.2
+    assert exact.item() < 1e-20
+    assert flow_matching_loss(lambda x, tt, c: c, x1, x1, gen(0), prediction="v").item() > 0.1
+
+
+@pytest.mark.parametrize("prediction", ["v", "x"])
+@pytest.mark.parametrize("solver", ["euler", "midpoint"])
+@pytest.mark.parametrize("steps", [1, 2, 5, 9])
+def test_both_parameterisations_integrate_a_known_field_exactly(prediction, solver, steps):
+    from motionlab.flow.rectified_flow import as_velocity_fn
+
+    # v(x, t) = a + b·t does not depend on x: Euler is exact for b = 0, midpoint for any b.
+    a = torch.tensor([[0.5, -1.0, 2.0]], dtype=torch.float64)
+    b = torch.tensor([[1.0, 0.25, -0.5]], dtype=torch.float64) * (solver == "midpoint")
+
+    def field(x, t):
+        return a + b * t[:, None]
+
+    def network(x, t, cond):  # a perfect network of this parameterisation for that field
+        if prediction == "v":
+            return field(x, t)
+        return x + (1 - t[:, None]) * field(x, t)  # x̂1 = E[x1 | x_t]: the field is (x̂1 − x) / (1 − t)
+
+    x0 = torch.randn(4, 3, generator=gen(5), dtype=torch.float64)
+    out = sample(as_velocity_fn(network, prediction), x0, steps, solver)
+    torch.testing.assert_close(out, x0 + a + 0.5 * b, rtol=1e-12, atol=1e-12)
+
+
+def test_logit_normal_times_lean_towards_loc_and_stay_inside_the_unit_interval():
+    from motionlab.flow.rectified_flow import sample_time
+
+    late = sample_time(20_000, gen(0), distribution="logit_normal", loc=1.0)
+    assert 0.0 < late.min() and late.max() < 1.0 and 0.68 < late.median() < 0.76  # sigmoid(1) = 0.731
+    torch.testing.assert_close(sample_time(8, gen(3)), torch.rand(8, generator=gen(3)))  # uniform unchanged
+    with pytest.raises(ValueError, match="distribution"):
+        sample_time(4, gen(0), distribution="beta")
+    with pytest.raises(ValueError, match="scale"):
+        sample_time(4, gen(0), distribution="logit_normal", scale=0.0)
+
+
+def test_data_dense_grid_shrinks_towards_the_data_end():
+    grid = time_grid(6, "data_dense")
+    assert grid[0] == 0.0 and grid[-1] == 1.0 and len(grid) == 7
+    gaps = grid.diff()
+    assert bool((gaps[1:] < gaps[:-1]).all())
+    assert ODESolver(6, "euler", "data_dense").grid.tolist() == grid.tolist()
+    with pytest.raises(ValueError, match="spacing"):
+        time_grid(4, "cosine")
+
+
+def test_final_fn_replaces_the_last_interval():
+    calls = []
+
+    def velocity(x, t, cond):
+        calls.append(float(t[0]))
+        return torch.ones_like(x)
+
+    out = sample(velocity, torch.zeros(2, 3), 4, "euler", final_fn=lambda x, t, c: x + 100.0)
+    assert calls == [0.0, 0.25, 0.5] and torch.equal(out, torch.full((2, 3), 100.75))

@@ -11,8 +11,17 @@ Condition projection    "stacked": 512 ·4 → 2048 → 2048, then 512 → 256 p
 Training                window 64, batch 768, AdamW (0.9, 0.999), torch-default weight decay 0.01,
                         lr 5e-4, cosine to 1e-5 with 20 of 200 epochs warm-up (481,896 steps in all,
                         so ≈ 48,190 warm-up steps), grad-norm clip 1.0, EMA 0.999, MSE flow loss
-Sampling                16-point grid with midpoint = 15 intervals = 30 network evaluations
+Sampling                16-point grid with midpoint = 15 intervals = 30 network evaluations, from unit
+                        Gaussian noise (temperature 1)
+Parameterisation        velocity prediction, t ~ U(0, 1), MSE on the velocity; features normalised by
+                        MoMask's Mean/Std with the root (dims 0–3) and foot-contact (last 4) std divided
+                        by 25 (``feat_bias``), which motionlab applies inside the decoder
+                        (``normalization="feat_bias"``: the decoder's own space is the tokenizer's ×25 there)
 =====================  ===========================================================================
+
+The options the paper does not use (``prediction="x"``, a logit-normal time distribution, a start-noise
+``temperature`` below 1, a ``data_dense`` grid, ``final_prediction``) are the levers chapter 05 measures at
+laptop scale; see :mod:`motionlab.flow.rectified_flow`.
 
 ``feature_dim`` and ``code_dim`` must match the tokenizer; pass it (or overrides) to :func:`discord_config`.
 """
@@ -24,10 +33,13 @@ from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 from motionlab.flow.condition import CONDITION_PROJECTIONS
-from motionlab.flow.rectified_flow import SOLVERS, ODESolver
+from motionlab.flow.rectified_flow import GRIDS, PREDICTIONS, SOLVERS, TIME_DISTRIBUTIONS, ODESolver
 from motionlab.flow.unet1d import UNetConfig
 from motionlab.profiles import get_profile
 from motionlab.train import TrainConfig
+
+NORMALIZATIONS = ("std", "feat_bias")
+FEAT_BIAS = 25.0  # MoMask's feat_bias: the root and foot-contact std is divided by this
 
 
 @dataclass(frozen=True)
@@ -43,9 +55,18 @@ class DisCoRDConfig:
     resnets_per_level: int = 1
     dropout: float = 0.0
     seed: int = 0  # weight initialisation: a decoder is a pure function of its config
+    # --- parameterisation (fixed at training time: a decoder trained one way cannot be read another)
+    prediction: str = "v"  # the network outputs the velocity ("v", the paper's) or the clean motion ("x")
+    normalization: str = "feat_bias"  # "std": the tokenizer's space; "feat_bias": root/contact dims ×25
+    time_distribution: str = "uniform"  # training times: "uniform" (the paper's) or "logit_normal"
+    time_loc: float = 0.0  # logit-normal location (> 0: more training near the data end)
+    time_scale: float = 1.0  # logit-normal scale
     # --- sampling (the decode() defaults)
     sample_steps: int = 15  # integration intervals: 16 grid points
     solver: str = "midpoint"
+    spacing: str = "uniform"  # the time grid: "uniform" or "data_dense"
+    temperature: float = 1.0  # start-noise scale: x0 ~ N(0, temperature² I) (the paper: 1)
+    final_prediction: bool = False  # x-prediction only: the last interval returns the network's x̂1
     # --- training (consumed by the shared trainer)
     window: int = 64  # frames per training window (= window / q tokens)
     batch_size: int = 768
@@ -61,8 +82,16 @@ class DisCoRDConfig:
     def __post_init__(self) -> None:
         if self.projection not in CONDITION_PROJECTIONS:
             raise ValueError(f"projection must be one of {CONDITION_PROJECTIONS}, got {self.projection!r}")
-        if self.solver not in SOLVERS:
-            raise ValueError(f"solver must be one of {SOLVERS}, got {self.solver!r}")
+        for name, choices in (("solver", SOLVERS), ("prediction", PREDICTIONS), ("normalization", NORMALIZATIONS),
+                              ("time_distribution", TIME_DISTRIBUTIONS), ("spacing", GRIDS)):  # fmt: skip
+            if getattr(self, name) not in choices:
+                raise ValueError(f"{name} must be one of {choices}, got {getattr(self, name)!r}")
+        if not (math.isfinite(self.temperature) and self.temperature >= 0):
+            raise ValueError(f"temperature must be a finite number >= 0, got {self.temperature!r}")
+        if not self.time_scale > 0:
+            raise ValueError(f"time_scale must be > 0, got {self.time_scale!r}")
+        if self.final_prediction and self.prediction != "x":
+            raise ValueError("final_prediction returns the network's x̂1: it needs prediction='x'")
         if self.window % self.q or self.window % self.unet.length_multiple:
             raise ValueError(f"window={self.window} must be a multiple of q={self.q} and of the U-Net stride")
         if not 0.0 <= self.ema_decay < 1.0:

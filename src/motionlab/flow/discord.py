@@ -8,18 +8,23 @@ Training regresses ``v`` on ``x1 − x0`` along ``x_t = t·x1 + (1 − t)·x0`` 
 ``x1`` and the code vectors of their own tokens (the tokenizer stays frozen; see :meth:`DisCoRDDecoder.loss`).
 The output lives where the tokenizer's inputs live (normalised features): ``decode`` is a drop-in
 replacement for the tokenizer's feed-forward ``decode(ids) -> (B, T, D)``.
-"""
 
+The flow itself runs in the decoder's *model space*: the tokenizer's normalised features, with the root and
+foot-contact dims scaled ×25 when ``config.normalization == "feat_bias"`` (the public code's weighting).
+What the network outputs (velocity or clean motion) is ``config.prediction``; the weights record both, and
+loading them into a decoder configured otherwise raises instead of decoding garbage.
+"""
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import torch
 from torch import Tensor, nn
 
 from motionlab.flow.condition import make_condition_projection
-from motionlab.flow.config import DisCoRDConfig, discord_config
-from motionlab.flow.rectified_flow import flow_matching_loss, sample, sample_noise
+from motionlab.flow.config import FEAT_BIAS, DisCoRDConfig, discord_config
+from motionlab.flow.rectified_flow import as_velocity_fn, flow_matching_loss, sample, sample_noise
 from motionlab.flow.unet1d import UNet1D
 from motionlab.train import seeded
 
@@ -33,6 +38,7 @@ class DisCoRDDecoder(nn.Module):
         with seeded(cfg.seed):  # initial weights depend on the config alone
             self.projection = make_condition_projection(cfg.projection, cfg.code_dim, cfg.cond_dim, q=cfg.q)
             self.unet = UNet1D(cfg.unet)
+        self.register_buffer("feature_scale", feature_scale(cfg), persistent=False)  # (D,)
         # Kept out of nn.Module's registry on purpose: the tokenizer's weights must not appear in this
         # module's parameters() (an optimizer over them would update it) nor in its state_dict (checkpoints).
         self.__dict__["_tokenizer"] = None
@@ -41,6 +47,22 @@ class DisCoRDDecoder(nn.Module):
     def from_tokenizer(cls, tokenizer: Any, profile: str | None = None, **overrides: Any) -> DisCoRDDecoder:
         """A decoder sized for ``tokenizer`` (widths, stride) in ``profile``, already attached to it."""
         return cls(discord_config(profile, tokenizer=tokenizer, **overrides)).attach(tokenizer)
+
+    SAMPLING_FIELDS = ("sample_steps", "solver", "spacing", "temperature", "final_prediction")
+
+    def with_sampling(self, **options: Any) -> DisCoRDDecoder:
+        """The same weights with other sampling defaults (``sample_steps``, ``solver``, ``spacing``,
+        ``temperature``, ``final_prediction``); shares parameters with ``self`` and its tokenizer."""
+        unknown = set(options) - set(self.SAMPLING_FIELDS)
+        if unknown:
+            raise ValueError(f"with_sampling sets only {self.SAMPLING_FIELDS}, got {sorted(unknown)}")
+        other = DisCoRDDecoder.__new__(DisCoRDDecoder)
+        nn.Module.__init__(other)
+        other.config = replace(self.config, **options)
+        other.projection, other.unet = self.projection, self.unet
+        other.register_buffer("feature_scale", self.feature_scale, persistent=False)
+        other.__dict__["_tokenizer"] = self.tokenizer
+        return other.train(self.training)
 
     # ------------------------------------------------------------------ tokenizer
 
@@ -66,24 +88,60 @@ class DisCoRDDecoder(nn.Module):
                     f"tokenizer.{attr}={getattr(tokenizer, attr)} does not match the decoder config ({want})"
                 )
 
+    # ------------------------------------------------------------------ parameterisation record
+
+    def get_extra_state(self) -> Tensor:
+        """What the weights mean, saved beside them: ``"prediction=v;normalization=std"`` as bytes."""
+        return torch.tensor(list(self._interpretation().encode()), dtype=torch.uint8)
+
+    def set_extra_state(self, state: Any) -> None:
+        saved = bytes(torch.as_tensor(state, dtype=torch.uint8).tolist()).decode()
+        if saved != self._interpretation():
+            raise ValueError(f"these DisCoRD weights were trained with {saved!r} but the decoder is configured "
+                             f"with {self._interpretation()!r}: load them with the config they were trained with")
+
+    def _interpretation(self) -> str:
+        return f"prediction={self.config.prediction};normalization={self.config.normalization}"
+
+    # ------------------------------------------------------------------ spaces
+
+    def to_model_space(self, motion: Tensor) -> Tensor:
+        """Tokenizer-normalised features → the flow's space (× 25 on root/contact dims under ``feat_bias``)."""
+        return motion * self.feature_scale.to(motion.dtype)
+
+    def from_model_space(self, x: Tensor) -> Tensor:
+        """The inverse of :meth:`to_model_space`."""
+        return x / self.feature_scale.to(x.dtype)
+
     # ------------------------------------------------------------------ network
 
     def condition(self, code_vectors: Tensor) -> Tensor:
         """Frame-wise condition features: ``(B, N, d) -> (B, q·N, c)``."""
         return self.projection(code_vectors)
 
+    @property
+    def velocity_field(self):
+        """The U-Net as a velocity function ``(x_t, t, cond) -> v`` whatever it predicts (model space)."""
+        return as_velocity_fn(self.unet, self.config.prediction)
+
     def velocity(self, x_t: Tensor, t: Tensor, code_vectors: Tensor) -> Tensor:
-        """``v(x_t, t, C(Z))``: ``(B, T, D), (B,), (B, T/q, d) -> (B, T, D)``."""
+        """``v(x_t, t, C(Z))`` in model space: ``(B, T, D), (B,), (B, T/q, d) -> (B, T, D)``."""
         self._check_pair(x_t, code_vectors, "x_t")
-        return self.unet(x_t, t, self.condition(code_vectors))
+        return self.velocity_field(x_t, t, self.condition(code_vectors))
 
     forward = velocity
 
     def loss(self, motion: Tensor, code_vectors: Tensor, generator: torch.Generator) -> Tensor:
-        """Rectified-flow MSE on a batch of windows ``motion (B, T, D)`` with their codes ``(B, T/q, d)``."""
+        """Rectified-flow MSE on a batch of windows ``motion (B, T, D)`` with their codes ``(B, T/q, d)``.
+
+        ``motion`` is tokenizer-normalised; the loss is taken in model space, on the velocity.
+        """
         self._check_pair(motion, code_vectors, "motion")
+        cfg = self.config
         cond = self.condition(code_vectors)  # (B, T, c)
-        return flow_matching_loss(self.unet, motion, cond, generator)
+        return flow_matching_loss(self.unet, self.to_model_space(motion), cond, generator,
+                                  prediction=cfg.prediction, time_distribution=cfg.time_distribution,
+                                  time_loc=cfg.time_loc, time_scale=cfg.time_scale)  # fmt: skip
 
     # ------------------------------------------------------------------ sampling
 
@@ -95,16 +153,21 @@ class DisCoRDDecoder(nn.Module):
         solver: str | None = None,
         generator: torch.Generator | None = None,
         seed: int | None = None,
+        temperature: float | None = None,
     ) -> Tensor:
         """Solve the ODE from seeded noise: code vectors ``(B, N, d)`` -> motion ``(B, q·N, D)``.
 
-        ``steps`` integration intervals of ``solver`` (defaults from the config: for ``full`` 15 midpoint
-        intervals = the public code's 16-point grid). Pass ``generator`` or ``seed`` (default seed 0): the
-        same seed gives the same motion.
+        ``steps`` integration intervals of ``solver`` on the config's grid (defaults from the config: for
+        ``full`` 15 midpoint intervals = the public code's 16-point grid). The start noise is
+        ``temperature · N(0, I)`` (default: the config's; the paper's 1). Pass ``generator`` or ``seed``
+        (default seed 0): the same seed gives the same motion.
         """
         cfg = self.config
         steps = cfg.sample_steps if steps is None else steps
         solver = cfg.solver if solver is None else solver
+        temperature = cfg.temperature if temperature is None else float(temperature)
+        if not (temperature >= 0 and temperature < float("inf")):
+            raise ValueError(f"temperature must be a finite number >= 0, got {temperature!r}")
         generator = _resolve_generator(generator, seed)
         if not isinstance(code_vectors, Tensor) or code_vectors.dim() != 3 or code_vectors.shape[-1] != cfg.code_dim:
             raise ValueError(f"code_vectors must have shape (B, N, {cfg.code_dim}), got {_shape(code_vectors)}")
@@ -116,8 +179,10 @@ class DisCoRDDecoder(nn.Module):
         self.eval()  # dropout off while sampling
         try:
             cond = self.condition(code_vectors)  # (B, T, c): computed once, reused at every evaluation
-            x0 = sample_noise((B, N * cfg.q, cfg.feature_dim), generator, like=cond)  # (B, T, D)
-            return sample(self.unet, x0, steps, solver, cond)
+            x0 = temperature * sample_noise((B, N * cfg.q, cfg.feature_dim), generator, like=cond)  # (B, T, D)
+            final_fn = self.unet if cfg.final_prediction else None
+            x1 = sample(self.velocity_field, x0, steps, solver, cond, spacing=cfg.spacing, final_fn=final_fn)
+            return self.from_model_space(x1)
         finally:
             self.train(was_training)
 
@@ -130,6 +195,7 @@ class DisCoRDDecoder(nn.Module):
         solver: str | None = None,
         generator: torch.Generator | None = None,
         seed: int | None = None,
+        temperature: float | None = None,
     ) -> Tensor:
         """Token ids ``(B, N)`` (VQ) or ``(B, N, R)`` (RVQ, −1 = absent layer) -> motion ``(B, q·N, D)``.
 
@@ -147,7 +213,8 @@ class DisCoRDDecoder(nn.Module):
         expected = (ids.shape[0], ids.shape[1], self.config.code_dim)
         if not isinstance(code_vectors, Tensor) or tuple(code_vectors.shape) != expected:
             raise ValueError(f"tokenizer.embed returned {_shape(code_vectors)}, expected {expected}")
-        return self.sample(code_vectors, steps=steps, solver=solver, generator=generator, seed=seed)
+        return self.sample(code_vectors, steps=steps, solver=solver, generator=generator, seed=seed,
+                           temperature=temperature)
 
     # ------------------------------------------------------------------ checks
 
@@ -162,6 +229,16 @@ class DisCoRDDecoder(nn.Module):
         if not isinstance(code_vectors, Tensor) or tuple(code_vectors.shape) != expected:
             raise ValueError(f"code_vectors must have shape {expected} for {name} {tuple(x.shape)}, "
                              f"got {_shape(code_vectors)}")
+
+
+def feature_scale(config: DisCoRDConfig) -> Tensor:
+    """Per-feature factor from the tokenizer's space to the flow's: ``(D,)`` ones, or 25 on the root (dims 0–3)
+    and foot-contact (last 4) dims under ``normalization="feat_bias"`` (their std divided by 25, as in MoMask)."""
+    scale = torch.ones(config.feature_dim)
+    if config.normalization == "feat_bias":
+        scale[:4] = FEAT_BIAS
+        scale[-4:] = FEAT_BIAS
+    return scale
 
 
 def discord_loss_fn(model: DisCoRDDecoder, batch: tuple[Tensor, Tensor], generator: torch.Generator) -> dict:

@@ -94,9 +94,13 @@ class ReconstructionScores:
 
     fid: float
     mpjpe_mm: float
-    sjpe: float
+    sjpe: float  # the element variant (per-element ε, in [0, 4] for t2m): motionlab's headline
     noise_sjpe: float
     static_sjpe: float
+    sjpe_ratio: float  # the ratio-of-sums variant, in [0, 1]: the scale of the paper's tables
+    noise_sjpe_ratio: float
+    static_sjpe_ratio: float
+    joint_jerk: float  # mean jerk magnitude of the sJPE joints (m/s³), to set beside the ground truth's
 
     def as_dict(self) -> dict[str, float]:
         return asdict(self)
@@ -121,7 +125,8 @@ def reconstruction_scores(
 
     ``embed`` (e.g. an evaluator's ``embed_motions``) maps raw clips to ``(N, d)`` embeddings for FID;
     pass ``gt_embeddings`` to reuse the ground truth's. Without ``embed`` the FID is NaN.
-    MPJPE pools every pose (pelvis-aligned, millimetres); sJPE is the mean over clips (element variant).
+    MPJPE pools every pose (pelvis-aligned, millimetres); sJPE is the mean over clips, in both of the
+    public code's variants (element, and ratio: the paper's [0, 1] scale). Joints are recovered once.
     """
     if len(pred_features) != len(gt_features) or len(pred_features) == 0:
         raise ValueError(f"need equal, non-zero numbers of clips, got {len(pred_features)} and {len(gt_features)}")
@@ -132,12 +137,15 @@ def reconstruction_scores(
     pred_joints, gt_joints = joints_of(pred_features), joints_of(gt_features)
     to_mm = 1000.0 * get_skeleton(skeleton).meters_per_unit
     jerk = sjpe_dataset(pred_joints, gt_joints, skeleton)
+    ratio = sjpe_dataset(pred_joints, gt_joints, skeleton, variant="ratio")
     if embed is None:
         distance = float("nan")
     else:
         reference = gt_embeddings if gt_embeddings is not None else embed(list(gt_features))
         distance = fid(reference, embed(list(pred_features)))
-    return ReconstructionScores(distance, to_mm * mpjpe(pred_joints, gt_joints), jerk.sjpe, jerk.noise, jerk.static)
+    mean_jerk = float(np.mean(jerk.jerk_pred_per_clip))
+    return ReconstructionScores(distance, to_mm * mpjpe(pred_joints, gt_joints), jerk.sjpe, jerk.noise, jerk.static,
+                                ratio.sjpe, ratio.noise, ratio.static, mean_jerk)  # fmt: skip
 
 
 # ----------------------------------------------------------------------------- timing

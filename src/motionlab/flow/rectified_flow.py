@@ -10,9 +10,18 @@ Convention (DisCoRD and gnobitab/RectifiedFlow agree): noise at ``t = 0``, data 
     target velocity  v* = d x_t / dt = x1 − x0
     loss = E ‖v*  − v(x_t, t, cond)‖²              (mean over every element)
 
-Sampling integrates ``dx/dt = v(x, t, cond)`` from ``t = 0`` (noise) to ``t = 1`` (data) on the uniform grid
-``t_k = k / steps``. ``steps`` is the number of *intervals*; the network is called
-:func:`n_evaluations` ``(steps, solver)`` times: once per interval for Euler, twice for midpoint (RK2).
+Sampling integrates ``dx/dt = v(x, t, cond)`` from ``t = 0`` (noise) to ``t = 1`` (data) on a fixed grid
+(uniform ``t_k = k / steps``, or denser near the data end). ``steps`` is the number of *intervals*; the network
+is called :func:`n_evaluations` ``(steps, solver)`` times: once per interval for Euler, twice for midpoint (RK2).
+
+**What the network predicts.** The paper's network outputs the velocity (``prediction="v"``). With
+``prediction="x"`` it outputs the clean data ``x̂1`` instead, and the velocity it implies along the straight
+path is ``v = (x̂1 − x_t) / (1 − t)`` (``1 − t`` clamped at :data:`X_PREDICTION_MIN_GAP`, as Li & He, 2025, do).
+Both are trained with the same loss, on the velocity: for ``x`` it equals ``‖x̂1 − x1‖² / (1 − t)²``, which
+weighs late times more. A network narrow relative to its data cannot carry every noise dimension through to
+its output; predicting ``x̂1`` asks it to *drop* the noise rather than reproduce it, so what it cannot
+represent is lost from the noise, not left in the motion. The samplers only ever see velocities
+(:func:`as_velocity_fn`), so they are the same code for both.
 
 The public DisCoRD code calls ``torchdiffeq.odeint(..., torch.linspace(0, 1, 16), method="midpoint")``:
 a 16-point grid, i.e. **15 midpoint intervals = 30 network evaluations**, not "16 Euler steps".
@@ -31,6 +40,10 @@ from torch import Tensor
 VelocityFn = Callable[[Tensor, Tensor, Any], Tensor]
 SOLVERS = ("euler", "midpoint")
 _EVALS_PER_STEP = {"euler": 1, "midpoint": 2}
+PREDICTIONS = ("v", "x")  # what the network outputs: the velocity x1 − x0, or the clean data x1
+TIME_DISTRIBUTIONS = ("uniform", "logit_normal")  # training times: U(0, 1), or sigmoid(N(loc, scale²))
+GRIDS = ("uniform", "data_dense")  # sampling grids: t_k = k/n, or t_k = 1 − (1 − k/n)², denser near t = 1
+X_PREDICTION_MIN_GAP = 0.05  # 1 − t is clamped here when x-prediction is turned into a velocity
 
 # The public DisCoRD sampler: odeint over linspace(0, 1, 16) with the midpoint method.
 DISCORD_GRID_POINTS = 16
@@ -63,28 +76,77 @@ def sample_noise(shape: tuple[int, ...], generator: torch.Generator, like: Tenso
     return noise
 
 
-def sample_time(batch: int, generator: torch.Generator, like: Tensor | None = None) -> Tensor:
-    """``t ~ U(0, 1)`` of shape ``(B,)`` (DisCoRD uses no ε-offset at t = 0)."""
-    t = torch.rand(batch, generator=generator, device=generator.device)
+def sample_time(
+    batch: int,
+    generator: torch.Generator,
+    like: Tensor | None = None,
+    distribution: str = "uniform",
+    loc: float = 0.0,
+    scale: float = 1.0,
+) -> Tensor:
+    """Training times of shape ``(B,)``: ``U(0, 1)`` (DisCoRD, no ε-offset at t = 0) or logit-normal.
+
+    ``"logit_normal"`` draws ``t = sigmoid(n)``, ``n ~ N(loc, scale²)`` (as rectified-flow transformers do);
+    ``loc > 0`` puts more of the training near the data end ``t = 1``.
+    """
+    _check_choice("distribution", distribution, TIME_DISTRIBUTIONS)
+    if distribution == "uniform":
+        t = torch.rand(batch, generator=generator, device=generator.device)
+    else:
+        if not scale > 0:
+            raise ValueError(f"the logit-normal scale must be > 0, got {scale}")
+        t = torch.sigmoid(loc + scale * torch.randn(batch, generator=generator, device=generator.device))
     if like is not None:
         t = t.to(device=like.device, dtype=like.dtype)
     return t
 
 
+def velocity_from_data(x1_hat: Tensor, x_t: Tensor, t: Tensor, min_gap: float = X_PREDICTION_MIN_GAP) -> Tensor:
+    """The velocity an x-prediction implies on the straight path: ``(x̂1 − x_t) / max(1 − t, min_gap)``.
+
+    Exact (equal to ``x1 − x0``) whenever ``x̂1 = x1`` and ``1 − t ≥ min_gap``.
+    """
+    gap = (1.0 - t).clamp_min(min_gap).reshape(-1, *([1] * (x_t.dim() - 1))).to(x_t.dtype)  # (B, 1, ..., 1)
+    return (x1_hat - x_t) / gap
+
+
+def as_velocity_fn(network: VelocityFn, prediction: str = "v") -> VelocityFn:
+    """Wrap a network so it returns velocities whatever it predicts (``"v"``: itself; ``"x"``: converted)."""
+    _check_choice("prediction", prediction, PREDICTIONS)
+    if prediction == "v":
+        return network
+
+    def velocity(x_t: Tensor, t: Tensor, cond: Any) -> Tensor:
+        return velocity_from_data(network(x_t, t, cond), x_t, t)
+
+    return velocity
+
+
 def flow_matching_loss(
-    velocity_fn: VelocityFn, x1: Tensor, cond: Any = None, generator: torch.Generator | None = None
+    network: VelocityFn,
+    x1: Tensor,
+    cond: Any = None,
+    generator: torch.Generator | None = None,
+    *,
+    prediction: str = "v",
+    time_distribution: str = "uniform",
+    time_loc: float = 0.0,
+    time_scale: float = 1.0,
 ) -> Tensor:
     """Rectified-flow loss ``mean((x1 − x0) − v(t·x1 + (1 − t)·x0, t, cond))²``.
 
-    ``x1``: a batch of data ``(B, ...)``. ``generator`` draws both the noise ``x0`` and the times ``t``;
-    it is required (pass one created with ``torch.Generator().manual_seed(seed)``).
+    ``x1``: a batch of data ``(B, ...)``. ``generator`` draws both the noise ``x0`` and the times ``t``
+    (from ``time_distribution``, see :func:`sample_time`); it is required (pass one created with
+    ``torch.Generator().manual_seed(seed)``). ``network`` outputs what ``prediction`` says; the loss is always
+    on the velocity it implies (:func:`as_velocity_fn`).
     """
     if not isinstance(x1, Tensor) or x1.dim() < 2:
         raise ValueError(f"x1 must be a tensor of shape (B, ...) with at least 2 dims, got {_shape(x1)}")
     if generator is None:
         raise ValueError("generator is required: pass a seeded torch.Generator")
+    velocity_fn = as_velocity_fn(network, prediction)
     x0 = sample_noise(tuple(x1.shape), generator, like=x1)  # (B, ...)
-    t = sample_time(x1.shape[0], generator, like=x1)  # (B,)
+    t = sample_time(x1.shape[0], generator, like=x1, distribution=time_distribution, loc=time_loc, scale=time_scale)
     x_t = interpolate(x0, x1, t)
     v = velocity_fn(x_t, t, cond)
     return torch.mean((target_velocity(x0, x1) - v) ** 2)
@@ -95,13 +157,15 @@ def flow_matching_loss(
 
 @dataclass(frozen=True)
 class ODESolver:
-    """A fixed-grid solver setting: ``steps`` intervals of the uniform grid on [0, 1], ``solver`` method."""
+    """A fixed-grid solver setting: ``steps`` intervals of ``spacing`` on [0, 1], ``solver`` method."""
 
     steps: int
     solver: str = "euler"
+    spacing: str = "uniform"
 
     def __post_init__(self) -> None:
         _check_solver(self.steps, self.solver)
+        _check_choice("spacing", self.spacing, GRIDS)
 
     @property
     def n_evaluations(self) -> int:
@@ -109,7 +173,7 @@ class ODESolver:
 
     @property
     def grid(self) -> Tensor:
-        return time_grid(self.steps)
+        return time_grid(self.steps, self.spacing)
 
 
 def n_evaluations(steps: int, solver: str = "euler") -> int:
@@ -118,10 +182,13 @@ def n_evaluations(steps: int, solver: str = "euler") -> int:
     return _EVALS_PER_STEP[solver] * steps
 
 
-def time_grid(steps: int) -> Tensor:
-    """The uniform grid ``t_k = k / steps``, ``k = 0..steps`` (``steps + 1`` points)."""
+def time_grid(steps: int, spacing: str = "uniform") -> Tensor:
+    """``steps + 1`` time points from 0 to 1: ``t_k = k / steps`` (``"uniform"``) or ``1 − (1 − k/steps)²``
+    (``"data_dense"``: intervals shrink linearly towards the data end, where the fine detail is decided)."""
     _check_steps(steps)
-    return torch.linspace(0.0, 1.0, steps + 1, dtype=torch.float64)
+    _check_choice("spacing", spacing, GRIDS)
+    s = torch.linspace(0.0, 1.0, steps + 1, dtype=torch.float64)
+    return s if spacing == "uniform" else 1.0 - (1.0 - s) ** 2
 
 
 def discord_default_solver() -> ODESolver:
@@ -152,20 +219,31 @@ _STEPPERS = {"euler": euler_step, "midpoint": midpoint_step}
 
 
 def sample(
-    velocity_fn: VelocityFn, x0: Tensor, steps: int, solver: str = "euler", cond: Any = None
+    velocity_fn: VelocityFn,
+    x0: Tensor,
+    steps: int,
+    solver: str = "euler",
+    cond: Any = None,
+    *,
+    spacing: str = "uniform",
+    final_fn: Callable[[Tensor, Tensor, Any], Tensor] | None = None,
 ) -> Tensor:
-    """Integrate ``dx/dt = v(x, t, cond)`` from ``x(0) = x0`` to ``t = 1`` over ``steps`` uniform intervals.
+    """Integrate ``dx/dt = v(x, t, cond)`` from ``x(0) = x0`` to ``t = 1`` over ``steps`` intervals of ``spacing``.
 
     Calls ``velocity_fn`` exactly :func:`n_evaluations` ``(steps, solver)`` times. ``x0`` is the starting noise
     (draw it with :func:`sample_noise` and a seeded generator); the function itself is deterministic.
+    ``final_fn(x, t, cond)``, if given, replaces the last interval: it returns the data estimate from the last
+    grid point before 1 in one call (an x-predicting network's own ``x̂1``).
     """
     _check_solver(steps, solver)
     if not isinstance(x0, Tensor) or x0.dim() < 1:
         raise ValueError(f"x0 must be a tensor of shape (B, ...), got {_shape(x0)}")
     step = _STEPPERS[solver]
-    grid = time_grid(steps).tolist()
+    grid = time_grid(steps, spacing).tolist()
     x = x0
-    for t0, t1 in zip(grid[:-1], grid[1:]):
+    for k, (t0, t1) in enumerate(zip(grid[:-1], grid[1:])):
+        if final_fn is not None and k == steps - 1:
+            return final_fn(x, _full_time(x, t0), cond)
         x = step(velocity_fn, x, t0, t1 - t0, cond)
     return x
 
@@ -180,6 +258,11 @@ def _full_time(x: Tensor, t: float) -> Tensor:
 def _check_steps(steps: int) -> None:
     if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
         raise ValueError(f"steps (number of integration intervals) must be a positive int, got {steps!r}")
+
+
+def _check_choice(name: str, value: Any, choices: tuple[str, ...]) -> None:
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {choices}, got {value!r}")
 
 
 def _check_solver(steps: int, solver: str) -> None:

@@ -86,7 +86,7 @@ def loss_at_time(model: DisCoRDDecoder, motion: Tensor, codes: Tensor, t: float,
     if not 0.0 <= t <= 1.0:
         raise ValueError(f"t must be in [0, 1], got {t}")
     device = next(model.parameters()).device
-    x1, codes = motion.to(device), codes.to(device)
+    x1, codes = model.to_model_space(motion.to(device)), codes.to(device)
     x0 = torch.randn(x1.shape, generator=generator, device=generator.device).to(device)
     times = torch.full((x1.shape[0],), float(t), device=device)
     v = model.velocity(t * x1 + (1.0 - t) * x0, times, codes)
@@ -94,13 +94,19 @@ def loss_at_time(model: DisCoRDDecoder, motion: Tensor, codes: Tensor, t: float,
 
 
 def noise_floor(config: DisCoRDConfig) -> float:
-    """A lower bound on the t = 0 loss when the U-Net is narrower than the motion: ``max(0, (D − w) / D)``.
+    """A lower bound on the t = 0 loss of a velocity-predicting U-Net narrower than the motion: ``(D − w) / D``.
 
     The U-Net sees each frame of ``x_t`` only through its first 1×1 convolution, ``w`` channels. At t = 0 the
     target ``x1 − x0`` contains all ``D`` dimensions of the frame's noise ``x0 ~ N(0, I)``, independent of
     everything else; ``w`` linear measurements leave at least ``D − w`` of them unpredictable, each with
     variance 1, so the mean squared error per element is at least ``(D − w) / D``.
+
+    An x-predicting network has no such floor (0): it outputs ``x̂1``, and the ``− x_t`` part of the velocity
+    ``(x̂1 − x_t) / (1 − t)`` is added outside the network, exactly, in all ``D`` dimensions. The noise does not
+    have to pass through the narrow part, so it cannot get stuck there.
     """
+    if config.prediction == "x":
+        return 0.0
     return max(0.0, (config.feature_dim - config.width) / config.feature_dim)
 
 

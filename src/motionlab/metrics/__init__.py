@@ -28,7 +28,15 @@ from .mpjpe import mpjpe
 from .official import OfficialEvaluator, load_official_evaluator, official_paths
 from .protocol import Estimate, mean_ci, summarize_runs
 from .retrieval import RetrievalScores, euclidean_distance_matrix, mm_dist, r_precision, retrieval_metrics
-from .sjpe import SJPE_JOINTS, SJPEResult, sjpe, sjpe_dataset, sjpe_from_features, sjpe_setting
+from .sjpe import (
+    SJPE_JOINTS,
+    SJPEResult,
+    sjpe,
+    sjpe_dataset,
+    sjpe_from_features,
+    sjpe_jerk_magnitudes,
+    sjpe_setting,
+)
 from .words import (
     POS_CATEGORIES,
     VIP_WORDS,
@@ -49,6 +57,6 @@ __all__ = [
     "frechet_distance", "gaussian_stats", "init_weights", "ldlj_from_log_jerk", "load_official_evaluator",
     "log_dimensionless_jerk", "log_jerk", "log_jerk_batch", "mean_ci", "mm_dist", "mpjpe", "multimodality",
     "official_paths", "pad_caption", "pos_category", "r_precision", "retrieval_metrics", "sjpe",
-    "sjpe_dataset", "sjpe_from_features", "sjpe_setting", "summarize_runs", "transition_log_jerk",
-    "transition_windows",
+    "sjpe_dataset", "sjpe_from_features", "sjpe_jerk_magnitudes", "sjpe_setting", "summarize_runs",
+    "transition_log_jerk", "transition_windows",
 ]  # fmt: skip

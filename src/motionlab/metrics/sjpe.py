@@ -180,6 +180,15 @@ def sjpe_dataset(
     return SJPEResult(noise, static, mean_p, mean_g)
 
 
+def sjpe_jerk_magnitudes(clips, skeleton: str = "t2m") -> np.ndarray:
+    """Every jerk magnitude sJPE compares, ``(sum_i (T_i - 3), n_selected)`` in m/s³, for a list of ``(T_i, J, 3)``
+    joint clips (all joints; metres for t2m, millimetres for KIT). Its percentiles say how much fine, fast
+    motion a dataset has: the yardstick an sJPE is relative to."""
+    setting = sjpe_setting(skeleton)
+    jerk, _ = _jerk_magnitudes(_selected_clips(list(clips), None, "clips", setting), setting.fps)
+    return jerk
+
+
 def sjpe(pred_joints, gt_joints, skeleton: str = "t2m", variant: str = "element") -> dict[str, float]:
     """sJPE of ONE clip: ``{"sjpe", "noise", "static"}`` with ``sjpe = noise + static``.
 

@@ -1,0 +1,191 @@
+"""Which DisCoRD decoder fits a laptop? Train variants under one wall-clock budget and score them on val.
+
+Each variant is a set of :class:`~motionlab.flow.DisCoRDConfig` overrides on top of the laptop profile
+(prediction target, normalisation, time distribution, width, learning rate). Its training run is sized to
+the budget: a calibration of ``--calibrate`` steps measures the seconds per step on this machine, and the
+run gets ``budget / (seconds per step)`` steps (the cosine schedule needs the total up front). At the given
+fractions of the run the EMA weights are scored on the validation split under several *sampling* settings
+(temperature, grid, final x̂1); the last checkpoint is scored with ``--seeds`` sampling seeds for intervals.
+
+One process per variant, one torch thread each, so two variants share a 2-core machine fairly::
+
+    python experiments/discord_sweep.py --list
+    python experiments/discord_sweep.py v x --budget 600 --out book/data/discord_sweep &
+    python experiments/discord_sweep.py v-feat x-feat --budget 600 --out book/data/discord_sweep &
+
+Every result goes to ``<out>/<variant>.json`` (written atomically); chapter 05 reads the folder.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from motionlab.data import load_dataset
+from motionlab.flow import DisCoRDDecoder, discord_config
+from motionlab.flow.discord import discord_loss_fn
+from motionlab.flow.reconstruction import decode_clips, reconstruction_scores
+from motionlab.flow.training import flow_validation, token_window_batches
+from motionlab.io.common import write_text_atomic
+from motionlab.metrics.evaluator_training import load_or_train_evaluator
+from motionlab.tokenizers import tokenizer_for_dataset
+from motionlab.train import Trainer, WindowDataset
+
+# Training-time choices: each variant is one trained model.
+VARIANTS: dict[str, dict] = {
+    "v": dict(prediction="v", normalization="std"),
+    "v-feat": dict(prediction="v", normalization="feat_bias"),
+    "x": dict(prediction="x", normalization="std"),
+    "x-feat": dict(prediction="x", normalization="feat_bias"),
+    "v-logit": dict(prediction="v", normalization="std", time_distribution="logit_normal", time_loc=0.5),
+    "x-logit": dict(prediction="x", normalization="std", time_distribution="logit_normal", time_loc=0.5),
+    "v-w128": dict(prediction="v", normalization="std", width=128),
+    "x-w128": dict(prediction="x", normalization="std", width=128),
+    "x-w128-feat": dict(prediction="x", normalization="feat_bias", width=128),
+    "v-w128-feat": dict(prediction="v", normalization="feat_bias", width=128),
+    "x-w192": dict(prediction="x", normalization="std", width=192),
+    "x-w128-lr2e-3": dict(prediction="x", normalization="std", width=128, lr=2e-3),
+    "x-w128-b64": dict(prediction="x", normalization="std", width=128, batch_size=64),
+}
+
+# Sampling-time choices, scored on the same weights.
+SAMPLINGS: dict[str, dict] = {
+    "T1": dict(temperature=1.0),
+    "T0.5": dict(temperature=0.5),
+    "T0": dict(temperature=0.0),
+    "T1-dense": dict(temperature=1.0, spacing="data_dense"),
+    "T1-final": dict(temperature=1.0, final_prediction=True),  # x only
+    "T0.5-final": dict(temperature=0.5, final_prediction=True),  # x only
+}
+
+
+def samplings_for(config) -> dict[str, dict]:
+    return {k: v for k, v in SAMPLINGS.items() if config.prediction == "x" or not v.get("final_prediction")}
+
+
+def score_decoder(decoder, tokenizer, normalized, gt, dataset, evaluator, gt_embeddings, seed: int) -> dict:
+    recon = decode_clips(normalized, tokenizer, decoder, seed=seed)
+    raw = [dataset.normalizer.denormalize(r) for r in recon]
+    scores = reconstruction_scores(raw, gt, evaluator.embed_motions, gt_embeddings).as_dict()
+    return scores, recon
+
+
+def evaluate(decoder, tokenizer, normalized, gt, dataset, evaluator, gt_embeddings, seeds: int) -> dict:
+    out = {}
+    for name, options in samplings_for(decoder.config).items():
+        runs, recons = [], []
+        for s in range(seeds):
+            scores, recon = score_decoder(decoder.with_sampling(**options), tokenizer, normalized, gt, dataset,
+                                          evaluator, gt_embeddings, seed=1000 + s)  # fmt: skip
+            runs.append(scores)
+            recons.append(recon)
+        row = {"runs": runs}
+        if len(recons) > 1:  # how far two sampling seeds land apart: the diversity a temperature keeps
+            a, b = np.concatenate(recons[0]), np.concatenate(recons[1])
+            row["seed_rms"] = float(np.sqrt(np.mean((a - b) ** 2)))
+        out[name] = row
+    return out
+
+
+def run_variant(name: str, args) -> dict:
+    torch.set_num_threads(1)
+    dataset = load_dataset(profile=args.profile)
+    tokenizer = tokenizer_for_dataset("rvq", dataset, args.profile, progress=False)
+    evaluator = load_or_train_evaluator(dataset, args.profile, progress=False)
+    config = discord_config(args.profile, tokenizer=tokenizer, **VARIANTS[name])
+
+    clips = list(dataset.split("val"))[: args.limit]
+    q = int(tokenizer.downsample)
+    normalized = [dataset.normalizer.normalize(c.features) for c in clips]
+    gt = [c.features[: len(c.features) // q * q] for c in clips]
+    gt_embeddings = evaluator.embed_motions(gt)
+    ff = reconstruction_scores([dataset.normalizer.denormalize(r) for r in decode_clips(normalized, tokenizer)],
+                               gt, evaluator.embed_motions, gt_embeddings).as_dict()  # fmt: skip
+
+    truth = reconstruction_scores(gt, gt).as_dict()  # the ground truth's own jerk, for scale
+
+    windows = WindowDataset(dataset.normalized("train"), config.window)
+    batches = token_window_batches(windows, tokenizer, config.batch_size)
+
+    # calibrate: seconds per step on this machine, now
+    probe = DisCoRDDecoder(config)
+    trainer = Trainer(probe, discord_loss_fn, batches, config.train_config(steps=args.calibrate + 5), progress=False)
+    trainer.fit(until=5)
+    start = time.perf_counter()
+    trainer.fit(until=args.calibrate + 5)
+    per_step = (time.perf_counter() - start) / args.calibrate
+    steps = max(50, int(args.budget / per_step))
+    config = replace(config, train_steps=steps, warmup_steps=max(10, steps // 20))
+
+    model = DisCoRDDecoder(config).attach(tokenizer)
+    val_fn = flow_validation(tokenizer, dataset.normalized("val"), config.window, seed=config.seed)
+    train = config.train_config(seed=config.seed, log_every=max(1, steps // 50))
+    trainer = Trainer(model, discord_loss_fn, batches, train, progress=False)
+    result = {"variant": name, "overrides": VARIANTS[name], "config": config.to_dict(), "budget_s": args.budget,
+              "calibrated_s_per_step": per_step, "feed_forward": ff, "ground_truth": truth, "checkpoints": [],
+              "clips": len(clips),
+              "machine": {"cpus": os.cpu_count(), "python": platform.python_version(), "torch": torch.__version__},
+              "dataset": dataset.key}  # fmt: skip
+    train_seconds = 0.0
+    for fraction in args.fractions:
+        until = max(1, round(fraction * steps))
+        t0 = time.perf_counter()
+        trainer.fit(until=until)
+        train_seconds += time.perf_counter() - t0
+        last = fraction == args.fractions[-1]
+        with trainer.ema.apply_to(model):
+            model.eval()
+            scores = evaluate(model, tokenizer, normalized, gt, dataset, evaluator, gt_embeddings,
+                              args.seeds if last else 1)  # fmt: skip
+            val_loss = val_fn(model)["loss"]
+            model.train()
+        result["checkpoints"].append({"step": until, "fraction": fraction, "train_seconds": train_seconds,
+                                      "val_loss": val_loss, "samplings": scores})  # fmt: skip
+        best = min(scores.items(), key=lambda kv: np.mean([r["sjpe"] for r in kv[1]["runs"]]))
+        print(f"[{name}] step {until}/{steps} ({train_seconds:.0f} s): val loss {val_loss:.4f}; "
+              f"best sampling {best[0]} sJPE {np.mean([r['sjpe'] for r in best[1]['runs']]):.3f} "
+              f"(feed-forward {ff['sjpe']:.3f})", flush=True)  # fmt: skip
+    result["history"] = trainer.history
+    return result
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("variants", nargs="*", help=f"which of: {', '.join(VARIANTS)}")
+    parser.add_argument("--list", action="store_true", help="list the variants and sampling settings")
+    parser.add_argument("--profile", default="laptop")
+    parser.add_argument("--budget", type=float, default=600.0, help="training wall-clock seconds per variant")
+    parser.add_argument("--calibrate", type=int, default=20, help="steps timed to size the run")
+    parser.add_argument("--fractions", type=float, nargs="+", default=[0.25, 0.5, 1.0])
+    parser.add_argument("--seeds", type=int, default=3, help="sampling seeds at the last checkpoint")
+    parser.add_argument("--limit", type=int, default=None, help="first N validation clips (default: all)")
+    parser.add_argument("--out", type=Path, default=Path("book/data/discord_sweep"))
+    args = parser.parse_args(argv)
+    if args.list or not args.variants:
+        for name, overrides in VARIANTS.items():
+            print(f"{name:16s} {overrides}")
+        print("samplings:", ", ".join(f"{k} {v}" for k, v in SAMPLINGS.items()))
+        return 0
+    unknown = [v for v in args.variants if v not in VARIANTS]
+    if unknown:
+        parser.error(f"unknown variant(s) {unknown}; see --list")
+    if sorted(args.fractions) != args.fractions or not 0 < args.fractions[0] or args.fractions[-1] != 1.0:
+        parser.error("--fractions must increase and end at 1.0")
+    args.out.mkdir(parents=True, exist_ok=True)
+    for name in args.variants:
+        result = run_variant(name, args)
+        write_text_atomic(args.out / f"{name}.json", json.dumps(result, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
