@@ -7,7 +7,7 @@ import json
 import pytest
 
 from motionlab.flow import discord_config
-from motionlab.flow.sweep import best_setting, budget_curve, estimate, load_sweep, sweep_rows
+from motionlab.flow.sweep import best_setting, budget_curve, crossing, estimate, load_sweep, sweep_rows
 from motionlab.flow.training import noise_floor
 from motionlab.metrics import mean_ci
 
@@ -17,8 +17,8 @@ def _runs(*sjpe):
                      for s in sjpe], "seed_rms": 0.1}  # fmt: skip
 
 
-def _result(values_at_end):
-    return {"checkpoints": [
+def _result(values_at_end, budget=10.0):
+    return {"budget_s": budget, "checkpoints": [
         {"step": 10, "train_seconds": 5.0, "samplings": {"T1": _runs(3.0)}},
         {"step": 20, "train_seconds": 10.0, "samplings": values_at_end},
     ]}  # fmt: skip
@@ -50,6 +50,29 @@ def test_load_sweep_needs_results(tmp_path):
 
 
 def test_noise_floor_binds_velocity_prediction_only():
-    narrow = discord_config("laptop", width=128)
+    narrow = discord_config("laptop", width=128, prediction="v")
     assert noise_floor(narrow) == pytest.approx((263 - 128) / 263)
     assert noise_floor(discord_config("laptop", width=128, prediction="x")) == 0.0
+
+
+def test_best_setting_respects_the_budget(sweep_folder):
+    (sweep_folder / "x-long.json").write_text(json.dumps(_result({"T1": _runs(0.5, 0.6, 0.7)}, budget=40.0)))
+    sweep = load_sweep(sweep_folder)
+    assert best_setting(sweep) == ("x-long", "T1")
+    assert best_setting(sweep, max_budget=10.0) == ("x", "T1")
+    with pytest.raises(ValueError, match="budget"):
+        best_setting(sweep, max_budget=1.0)
+
+
+def test_crossing_is_measured_between_checkpoints_or_extrapolated():
+    import numpy as np
+
+    seconds, values = np.array([100.0, 200.0, 400.0]), np.array([2.0, 1.8, 1.4])
+    when, measured = crossing(seconds, values, 1.6)
+    assert measured and when == pytest.approx(np.exp(np.log(200) + 0.5 * np.log(2)))  # halfway in log-time
+    assert crossing(seconds, values, 2.5) == (100.0, True)
+    when, measured = crossing(seconds, np.array([2.0, 1.9, 1.8]), 1.5)  # 0.1 per doubling
+    assert not measured and when == pytest.approx(400.0 * 2**3)
+    assert crossing(seconds, np.array([2.0, 2.1, 2.2]), 1.5) == (None, False)
+    with pytest.raises(ValueError, match="two checkpoints"):
+        crossing(seconds[:1], values[:1], 1.0)

@@ -34,12 +34,42 @@ def estimate(result: dict[str, Any], sampling: str, metric: str, checkpoint: int
     return Estimate.from_values([run[metric] for run in runs])
 
 
-def best_setting(sweep: dict[str, dict[str, Any]], metric: str = "sjpe") -> tuple[str, str]:
-    """The (variant, sampling) whose last checkpoint has the lowest mean ``metric``."""
+def best_setting(sweep: dict[str, dict[str, Any]], metric: str = "sjpe", max_budget: float | None = None
+                 ) -> tuple[str, str]:  # fmt: skip
+    """The (variant, sampling) whose last checkpoint has the lowest mean ``metric``, among the variants trained
+    with a budget of at most ``max_budget`` seconds (all if ``None``)."""
     candidates = [(estimate(r, s, metric).mean, v, s) for v, r in sweep.items()
+                  if max_budget is None or r["budget_s"] <= max_budget
                   for s in r["checkpoints"][-1]["samplings"]]  # fmt: skip
+    if not candidates:
+        raise ValueError(f"no variant was trained within a budget of {max_budget} s")
     _, variant, sampling = min(candidates)
     return variant, sampling
+
+
+def crossing(seconds: np.ndarray, values: np.ndarray, target: float) -> tuple[float | None, bool]:
+    """When a decreasing budget curve first falls below ``target``: ``(seconds, measured)``.
+
+    Measured (``True``): interpolated linearly in log-seconds between the two checkpoints that bracket it.
+    Otherwise a straight line through the points in log-seconds (least squares) is extrapolated (``False``),
+    or ``(None, False)`` when the fitted curve does not fall. An extrapolation is a guess about a trend, not
+    a measurement: say so wherever it is shown.
+    """
+    seconds, values = np.asarray(seconds, dtype=float), np.asarray(values, dtype=float)
+    if len(seconds) != len(values) or len(seconds) < 2 or (seconds <= 0).any():
+        raise ValueError("need at least two checkpoints with positive training seconds")
+    log_t = np.log(seconds)
+    below = np.flatnonzero(values < target)
+    if below.size:
+        k = int(below[0])
+        if k == 0:
+            return float(seconds[0]), True
+        f = (values[k - 1] - target) / (values[k - 1] - values[k])
+        return float(np.exp(log_t[k - 1] + f * (log_t[k] - log_t[k - 1]))), True
+    slope, intercept = np.polyfit(log_t, values, 1)
+    if slope >= 0:
+        return None, False
+    return float(np.exp((target - intercept) / slope)), False
 
 
 def budget_curve(result: dict[str, Any], sampling: str, metric: str = "sjpe") -> tuple[np.ndarray, np.ndarray]:
@@ -70,4 +100,4 @@ def sweep_rows(sweep: dict[str, dict[str, Any]], samplings: Sequence[str] | None
     return rows
 
 
-__all__ = ["best_setting", "budget_curve", "estimate", "load_sweep", "sweep_rows"]
+__all__ = ["best_setting", "budget_curve", "crossing", "estimate", "load_sweep", "sweep_rows"]
