@@ -76,7 +76,9 @@ def samplings_for(config) -> dict[str, dict]:
     return {k: v for k, v in SAMPLINGS.items() if config.prediction == "x" or not v.get("final_prediction")}
 
 
-def score_decoder(decoder, tokenizer, normalized, gt, dataset, evaluator, gt_embeddings, seed: int) -> dict:
+def score_decoder(decoder, tokenizer, normalized, gt, dataset, evaluator, gt_embeddings,
+                  seed: int) -> tuple[dict, list[np.ndarray]]:  # fmt: skip
+    """Reconstruction scores of one decode of the validation clips, and the decoded (normalised) clips."""
     recon = decode_clips(normalized, tokenizer, decoder, seed=seed)
     raw = [dataset.normalizer.denormalize(r) for r in recon]
     scores = reconstruction_scores(raw, gt, evaluator.embed_motions, gt_embeddings).as_dict()

@@ -42,16 +42,16 @@ def _data_make_embedded(args: argparse.Namespace) -> int:
 
 def _train(args: argparse.Namespace) -> int:
     from .data import load_dataset
+    from .evaluation import FLOW_TRAINING_OPTIONS
     from .profiles import get_profile
     from .train.distributed import init_distributed
 
+    flow_options = {k: getattr(args, k) for k in FLOW_TRAINING_OPTIONS if getattr(args, k) is not None}
+    if flow_options and args.model != "discord":  # refused before any data is generated or loaded
+        raise ValueError(f"{', '.join(flow_options)} configure the DisCoRD decoder; they need the model 'discord'")
     ctx = init_distributed()  # a no-op unless launched by torchrun
     profile = get_profile(args.profile)
     dataset = load_dataset(args.data, profile=profile)
-    flow_options = {k: getattr(args, k) for k in ("prediction", "normalization", "time_distribution")
-                    if getattr(args, k) is not None}  # fmt: skip
-    if flow_options and args.model != "discord":
-        raise ValueError(f"{', '.join(flow_options)} configure the DisCoRD decoder; they need the model 'discord'")
     model = _trained_model(args.model, dataset, profile, args.device, flow_options)
     n_params = sum(p.numel() for p in model.parameters())
     if ctx.is_main:
