@@ -366,20 +366,13 @@ def _flow_label(decoder: Any, steps: int | None, solver: str | None) -> str:
 
 def _flow_options_label(decoder: Any) -> str:
     """``", x-prediction, temperature 0.5"``: what sets this decoder apart from the paper's (or "")."""
-    cfg, parts = decoder.config, []
-    if cfg.prediction != "v":
-        parts.append(f"{cfg.prediction}-prediction")
-    if cfg.normalization != "feat_bias":
-        parts.append(f"{cfg.normalization} normalisation")
-    if cfg.time_distribution != "uniform":
-        parts.append(f"{cfg.time_distribution} times")
-    if cfg.temperature != 1.0:
-        parts.append(f"temperature {cfg.temperature:g}")
-    if cfg.spacing != "uniform":
-        parts.append(f"{cfg.spacing} grid")
-    if cfg.final_prediction:
-        parts.append("last step x̂1")
-    return "".join(", " + p for p in parts)
+    from motionlab.flow import DisCoRDConfig
+
+    cfg, paper = decoder.config, DisCoRDConfig()  # the class defaults are the paper's (the full profile)
+    labels = {"prediction": f"{cfg.prediction}-prediction", "normalization": f"{cfg.normalization} normalisation",
+              "time_distribution": f"{cfg.time_distribution} times", "temperature": f"temperature {cfg.temperature:g}",
+              "spacing": f"{cfg.spacing} grid", "final_prediction": "last step x̂1"}  # fmt: skip
+    return "".join(", " + text for name, text in labels.items() if getattr(cfg, name) != getattr(paper, name))
 
 
 def _pipeline_and_decoder(dataset, cfg, profile: str, device, progress: bool):
