@@ -161,3 +161,18 @@ def test_mpjpe_aligns_the_pelvis():
     assert mpjpe([pred, gt[:3]], [gt, gt[:3]]) == pytest.approx(0.5 * 8 / (22 * 11))  # poses pooled
     with pytest.raises(ValueError, match="same shape"):
         mpjpe(pred, gt[:4])
+
+
+def test_sjpe_variants_score_each_variant_as_sjpe_dataset_does():
+    from motionlab.metrics import sjpe_variants
+
+    rng = np.random.default_rng(4)
+    gt = [rng.normal(0, 0.1, (n, 22, 3)) for n in (10, 17)]
+    pred = [g + rng.normal(0, 0.01, g.shape) for g in gt]
+    both = sjpe_variants(pred, gt)
+    for variant in ("element", "ratio"):
+        alone = sjpe_dataset(pred, gt, variant=variant)
+        np.testing.assert_array_equal(both[variant].noise_per_clip, alone.noise_per_clip)
+        np.testing.assert_array_equal(both[variant].static_per_clip, alone.static_per_clip)
+    with pytest.raises(ValueError, match="variants"):
+        sjpe_variants(pred, gt, variants=("element", "mean"))

@@ -42,6 +42,17 @@ NORMALIZATIONS = ("std", "feat_bias")
 FEAT_BIAS = 25.0  # MoMask's feat_bias: the root and foot-contact std is divided by this
 
 
+def check_temperature(value: Any) -> float:
+    """A start-noise temperature as a float; it must be finite and >= 0."""
+    try:
+        temperature = float(value)
+    except (TypeError, ValueError):
+        temperature = float("nan")
+    if not (math.isfinite(temperature) and temperature >= 0):
+        raise ValueError(f"temperature must be a finite number >= 0, got {value!r}")
+    return temperature
+
+
 @dataclass(frozen=True)
 class DisCoRDConfig:
     # --- model
@@ -86,8 +97,7 @@ class DisCoRDConfig:
                               ("time_distribution", TIME_DISTRIBUTIONS), ("spacing", GRIDS)):  # fmt: skip
             if getattr(self, name) not in choices:
                 raise ValueError(f"{name} must be one of {choices}, got {getattr(self, name)!r}")
-        if not (math.isfinite(self.temperature) and self.temperature >= 0):
-            raise ValueError(f"temperature must be a finite number >= 0, got {self.temperature!r}")
+        check_temperature(self.temperature)
         if not self.time_scale > 0:
             raise ValueError(f"time_scale must be > 0, got {self.time_scale!r}")
         if self.final_prediction and self.prediction != "x":

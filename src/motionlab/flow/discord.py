@@ -14,8 +14,10 @@ foot-contact dims scaled ×25 when ``config.normalization == "feat_bias"`` (the 
 What the network outputs (velocity or clean motion) is ``config.prediction``; the weights record both, and
 loading them into a decoder configured otherwise raises instead of decoding garbage.
 """
+
 from __future__ import annotations
 
+import copy
 from dataclasses import replace
 from typing import Any
 
@@ -23,7 +25,7 @@ import torch
 from torch import Tensor, nn
 
 from motionlab.flow.condition import make_condition_projection
-from motionlab.flow.config import FEAT_BIAS, DisCoRDConfig, discord_config
+from motionlab.flow.config import FEAT_BIAS, DisCoRDConfig, check_temperature, discord_config
 from motionlab.flow.rectified_flow import as_velocity_fn, flow_matching_loss, sample, sample_noise
 from motionlab.flow.unet1d import UNet1D
 from motionlab.train import seeded
@@ -56,13 +58,9 @@ class DisCoRDDecoder(nn.Module):
         unknown = set(options) - set(self.SAMPLING_FIELDS)
         if unknown:
             raise ValueError(f"with_sampling sets only {self.SAMPLING_FIELDS}, got {sorted(unknown)}")
-        other = DisCoRDDecoder.__new__(DisCoRDDecoder)
-        nn.Module.__init__(other)
+        other = copy.copy(self)  # shares the submodules, buffers and tokenizer; only the config differs
         other.config = replace(self.config, **options)
-        other.projection, other.unet = self.projection, self.unet
-        other.register_buffer("feature_scale", self.feature_scale, persistent=False)
-        other.__dict__["_tokenizer"] = self.tokenizer
-        return other.train(self.training)
+        return other
 
     # ------------------------------------------------------------------ tokenizer
 
@@ -165,9 +163,7 @@ class DisCoRDDecoder(nn.Module):
         cfg = self.config
         steps = cfg.sample_steps if steps is None else steps
         solver = cfg.solver if solver is None else solver
-        temperature = cfg.temperature if temperature is None else float(temperature)
-        if not (temperature >= 0 and temperature < float("inf")):
-            raise ValueError(f"temperature must be a finite number >= 0, got {temperature!r}")
+        temperature = cfg.temperature if temperature is None else check_temperature(temperature)
         generator = _resolve_generator(generator, seed)
         if not isinstance(code_vectors, Tensor) or code_vectors.dim() != 3 or code_vectors.shape[-1] != cfg.code_dim:
             raise ValueError(f"code_vectors must have shape (B, N, {cfg.code_dim}), got {_shape(code_vectors)}")

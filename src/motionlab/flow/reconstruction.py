@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from motionlab.metrics import fid, mpjpe, sjpe_dataset
+from motionlab.metrics import fid, mpjpe, sjpe_variants
 from motionlab.representation import get_skeleton, recover_from_ric
 
 SKELETON_OF_DIM = {263: "t2m", 251: "kit"}
@@ -136,8 +136,8 @@ def reconstruction_scores(
     skeleton = SKELETON_OF_DIM.get(int(np.shape(gt_features[0])[-1]), "t2m")
     pred_joints, gt_joints = joints_of(pred_features), joints_of(gt_features)
     to_mm = 1000.0 * get_skeleton(skeleton).meters_per_unit
-    jerk = sjpe_dataset(pred_joints, gt_joints, skeleton)
-    ratio = sjpe_dataset(pred_joints, gt_joints, skeleton, variant="ratio")
+    scored = sjpe_variants(pred_joints, gt_joints, skeleton)  # jerks computed once, both variants scored
+    jerk, ratio = scored["element"], scored["ratio"]
     if embed is None:
         distance = float("nan")
     else:

@@ -36,6 +36,7 @@ from .sjpe import (
     sjpe_from_features,
     sjpe_jerk_magnitudes,
     sjpe_setting,
+    sjpe_variants,
 )
 from .words import (
     POS_CATEGORIES,
@@ -57,6 +58,6 @@ __all__ = [
     "frechet_distance", "gaussian_stats", "init_weights", "ldlj_from_log_jerk", "load_official_evaluator",
     "log_dimensionless_jerk", "log_jerk", "log_jerk_batch", "mean_ci", "mm_dist", "mpjpe", "multimodality",
     "official_paths", "pad_caption", "pos_category", "r_precision", "retrieval_metrics", "sjpe",
-    "sjpe_dataset", "sjpe_from_features", "sjpe_jerk_magnitudes", "sjpe_setting", "summarize_runs",
+    "sjpe_dataset", "sjpe_from_features", "sjpe_jerk_magnitudes", "sjpe_setting", "sjpe_variants", "summarize_runs",
     "transition_log_jerk", "transition_windows",
 ]  # fmt: skip

@@ -163,6 +163,17 @@ def sjpe_dataset(
     """
     if variant not in VARIANTS:
         raise ValueError(f"variant must be one of {VARIANTS}, got {variant!r}")
+    return sjpe_variants(pred_clips, gt_clips, skeleton, (variant,), lengths)[variant]
+
+
+def sjpe_variants(
+    pred_clips, gt_clips, skeleton: str = "t2m", variants: Sequence[str] = VARIANTS,
+    lengths: Sequence[int] | None = None,
+) -> dict[str, SJPEResult]:  # fmt: skip
+    """:func:`sjpe_dataset` for several ``variants`` at once: the jerks are computed once and scored per variant."""
+    unknown = [v for v in variants if v not in VARIANTS]
+    if unknown:
+        raise ValueError(f"variants must be among {VARIANTS}, got {unknown}")
     setting = sjpe_setting(skeleton)
     pred = _selected_clips(pred_clips, lengths, "pred_clips", setting)
     gt = _selected_clips(gt_clips, lengths, "gt_clips", setting)
@@ -173,11 +184,10 @@ def sjpe_dataset(
             raise ValueError(f"clip {i}: prediction has {len(p)} frames but ground truth has {len(g)}")
     jp, clip_id = _jerk_magnitudes(pred, setting.fps)
     jg, _ = _jerk_magnitudes(gt, setting.fps)
-    noise, static = _score(jp, jg, clip_id, len(pred), variant)
     n_cells = np.bincount(clip_id, minlength=len(pred)) * len(setting.joints)
     mean_p = np.bincount(clip_id, weights=jp.sum(axis=1), minlength=len(pred)) / n_cells
     mean_g = np.bincount(clip_id, weights=jg.sum(axis=1), minlength=len(pred)) / n_cells
-    return SJPEResult(noise, static, mean_p, mean_g)
+    return {v: SJPEResult(*_score(jp, jg, clip_id, len(pred), v), mean_p, mean_g) for v in variants}
 
 
 def sjpe_jerk_magnitudes(clips, skeleton: str = "t2m") -> np.ndarray:
