@@ -6,6 +6,7 @@ Only subcommands whose component exists are listed; more arrive with their compo
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
@@ -47,6 +48,10 @@ def _train(args: argparse.Namespace) -> int:
     from .train.distributed import init_distributed
 
     flow_options = {k: getattr(args, k) for k in FLOW_TRAINING_OPTIONS if getattr(args, k) is not None}
+    if args.model == "book":
+        return _train_book(args, flow_options)
+    if args.jobs is not None:
+        raise ValueError("--jobs is for 'train book' (several models at once); one model trains in one process")
     if flow_options and args.model != "discord":  # refused before any data is generated or loaded
         raise ValueError(f"{', '.join(flow_options)} configure the DisCoRD decoder; they need the model 'discord'")
     ctx = init_distributed()  # a no-op unless launched by torchrun
@@ -56,6 +61,84 @@ def _train(args: argparse.Namespace) -> int:
     n_params = sum(p.numel() for p in model.parameters())
     if ctx.is_main:
         print(f"{args.model} ({profile}, data {dataset.key}): {n_params / 1e6:.2f} M parameters, trained and cached")
+    return 0
+
+
+def _train_book(args: argparse.Namespace, flow_options: dict) -> int:
+    from .book_models import book_jobs
+    from .profiles import get_profile
+    from .train.plan import results_table, run_plan
+
+    given = [f"--{k.replace('_', '-')}" for k in flow_options] + [o for o, v in (("--data", args.data),
+                                                                              ("--device", args.device)) if v]
+    if given:  # the book's models are fixed by its chapters
+        raise ValueError(f"{', '.join(given)} cannot be used with 'train book': it trains the book's own models")
+    jobs = args.jobs if args.jobs is not None else 2
+    if jobs < 1:
+        raise ValueError(f"--jobs must be >= 1, got {jobs}")
+    profile = get_profile(args.profile)
+    plan = book_jobs(profile)
+    try:
+        results = run_plan(plan, workers=jobs)
+    except KeyboardInterrupt:
+        print("interrupted: finished models are cached; run the same command again to train the rest", file=sys.stderr)
+        return 130
+    print(results_table(results))
+    failed = [r.name for r in results if r.status in ("failed", "skipped")]
+    if failed:
+        print(f"error: not trained: {', '.join(failed)}", file=sys.stderr)
+        return 1
+    print(f"the book's models ({profile}) are all in the cache")
+    return 0
+
+
+def _book_execute(args: argparse.Namespace) -> int:
+    import os
+    import time
+
+    import yaml
+
+    from . import notebook_runner as runner
+    from .profiles import get_profile
+
+    root = Path(args.root).resolve()
+    toc = root / "book" / "_toc.yml"
+    if not toc.is_file():
+        raise FileNotFoundError(f"{toc} not found: run 'book execute' in the book's repository (or pass --root)")
+    profile = get_profile(args.profile)
+    chapters = [root / f"{entry['file']}.ipynb" for part in yaml.safe_load(toc.read_text())["parts"]
+                for entry in part["chapters"] if entry["file"].startswith("notebooks/")]  # fmt: skip
+    if args.chapters:
+        unknown = sorted(set(args.chapters) - {c.stem for c in chapters})
+        if unknown:
+            raise ValueError(f"unknown chapters {unknown}; the book has {[c.stem for c in chapters]}")
+        chapters = [c for c in chapters if c.stem in args.chapters]
+    if args.jobs < 1:
+        raise ValueError(f"--jobs must be >= 1, got {args.jobs}")
+    out_dir = root / "_build" / "executed" / profile
+    timings_path = out_dir / "timings.json"
+    recorded = root / "book" / "data" / "build_times" / f"{profile}.json"
+    previous = runner.load_timings(timings_path) or runner.load_timings(recorded)
+    os.environ["MOTIONLAB_PROFILE"] = profile  # the chapters' kernels inherit it
+    print(f"executing {len(chapters)} chapters ({profile}), {args.jobs} at a time -> {out_dir}", flush=True)
+    start = time.monotonic()
+    last = {c.stem for c in chapters if runner.runs_last(c)}  # summaries that read the others' results
+    runs = runner.execute_chapters(chapters, out_dir / "notebooks", jobs=args.jobs, previous=previous, last=last,
+                                   stall_s=args.stall_seconds)  # fmt: skip
+    record = runner.timings_record(runs, profile, time.monotonic() - start)
+    if not args.chapters:
+        timings_path.write_text(json.dumps(record, indent=1))
+        if args.record:
+            recorded.parent.mkdir(parents=True, exist_ok=True)
+            recorded.write_text(json.dumps(record, indent=1))
+    print(runner.runs_table(runs))
+    failed = [r.name for r in runs if r.status != "ok"]
+    if failed:
+        print(f"error: chapters failed: {', '.join(failed)}", file=sys.stderr)
+        return 1
+    if not args.chapters:
+        stage = runner.stage_site(root, out_dir / "notebooks", root / "_build" / "site-src")
+        print(f"executed chapters staged for rendering in {stage}")
     return 0
 
 
@@ -275,13 +358,35 @@ def build_parser() -> argparse.ArgumentParser:
     make.set_defaults(func=_data_make_embedded)
 
     train = sub.add_parser("train", help="train a model of the book (or load it if already trained); resumable")
-    train.add_argument("model", choices=["vq", "rvq", "evaluator", "discord", "diffusion"], help="which model")
+    train.add_argument("model", choices=["vq", "rvq", "evaluator", "discord", "diffusion", "book"],
+                       help="which model; 'book': every model the chapters load, several at a time")
+    train.add_argument("--jobs", type=int, default=None,
+                       help="with 'book': models trained at once, one process and one torch thread each (default 2)")
     train.add_argument("--profile", choices=["smoke", "laptop", "full"], default=None,
                        help="model size (default: $MOTIONLAB_PROFILE or laptop)")  # fmt: skip
     train.add_argument("--data", default=None, help="a HumanML3D/KIT-ML folder (default: the embedded dataset)")
     train.add_argument("--device", default=None, help="cpu, cuda, cuda:1 ... (default: CUDA when present)")
     _add_flow_training_options(train)
     train.set_defaults(func=_train)
+
+    book = sub.add_parser("book", help="build steps of the book (run in its repository); `make book` calls them")
+    book_sub = book.add_subparsers(dest="step", required=True)
+    execute = book_sub.add_parser(
+        "execute", help="execute the chapters in parallel (a stalled kernel is restarted) and stage the site",
+        description="Execute every chapter of book/_toc.yml into _build/executed/<profile>/notebooks, several at a "
+                    "time, each in its own kernel; then stage _build/site-src, which Jupyter Book renders without "
+                    "executing the chapters again. Run `motionlab train book` first so the chapters only load models.",
+    )  # fmt: skip
+    execute.add_argument("--profile", choices=["smoke", "laptop", "full"], default=None,
+                         help="run profile (default: $MOTIONLAB_PROFILE or laptop)")  # fmt: skip
+    execute.add_argument("--jobs", type=int, default=2, help="chapters executed at once (default 2)")
+    execute.add_argument("--chapters", nargs="+", default=None, help="only these chapters (no staging)")
+    execute.add_argument("--root", default=".", help="the book's repository (default: the current folder)")
+    execute.add_argument("--stall-seconds", type=float, default=180.0,
+                         help="a running cell whose kernel sends nothing and uses no CPU this long is restarted")
+    execute.add_argument("--record", action="store_true",
+                         help="also write the timings to book/data/build_times/<profile>.json (committed)")
+    execute.set_defaults(func=_book_execute)
 
     gen = sub.add_parser(
         "generate", help="text to motion; several texts make one multi-action motion (TPS)",

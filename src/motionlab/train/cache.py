@@ -16,7 +16,8 @@ import json
 import os
 import shutil
 import uuid
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +31,32 @@ from .distributed import barrier, current_context
 
 BuildFn = Callable[[Any], nn.Module]
 TrainFn = Callable[[nn.Module, Path], Any]
+
+
+class NotCached(LookupError):
+    """Raised inside :func:`cache_probe` where something would have to be trained or generated."""
+
+
+_probing = 0
+
+
+@contextmanager
+def cache_probe() -> Iterator[None]:
+    """Inside this block nothing is trained: the first model (or dataset) missing from the cache raises
+    :class:`NotCached`. Running a recipe under it answers "is everything it needs cached?" with the recipe's
+    own cache keys, so the answer can never disagree with what the recipe would load."""
+    global _probing
+    _probing += 1
+    try:
+        yield
+    finally:
+        _probing -= 1
+
+
+def check_may_train(what: str) -> None:
+    """Call before training or generating ``what``: raises :class:`NotCached` inside :func:`cache_probe`."""
+    if _probing:
+        raise NotCached(f"{what} is not in the cache")
 
 
 def config_dict(config: Any) -> dict[str, Any]:
@@ -105,6 +132,7 @@ def train_or_load(
     final = artefact_dir(name, config, profile, extra)
     if not retrain and (final / "model.safetensors").is_file():
         return load_trained(name, config, build_fn, profile, extra=extra, device=device)
+    check_may_train(f"model {name!r} ({get_profile(profile)}, {final.name})")
     work = final.with_name(final.name + ".work")
     model = build_fn(config)
     result = train_fn(model, work)

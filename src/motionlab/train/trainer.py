@@ -41,6 +41,8 @@ from .distributed import (
     shard_batch,
 )
 from .ema import EMA
+from .progress import bars_enabled
+from .progress import report as report_progress
 from .schedules import SCHEDULES, lr_multiplier, set_lr
 
 LossFn = Callable[[nn.Module, Any, torch.Generator], dict[str, torch.Tensor]]
@@ -164,11 +166,13 @@ class Trainer:
         """Train up to step ``until`` (default: ``config.steps``); returns the history of logged averages."""
         cfg = self.config
         stop = cfg.steps if until is None else min(until, cfg.steps)
-        bar = tqdm(total=cfg.steps, initial=self.step, desc=self.desc, disable=not self.progress, leave=False)
+        bar = tqdm(total=cfg.steps, initial=self.step, desc=self.desc, disable=not (self.progress and bars_enabled()),
+                   leave=False)
         try:
             while self.step < stop:
                 logged = self.train_step()
                 bar.update(1)
+                report_progress(self.desc, self.step, cfg.steps)
                 for k, v in logged.items():
                     self._acc[k] = self._acc.get(k, 0.0) + v
                 self._acc_n += 1

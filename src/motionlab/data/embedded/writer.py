@@ -31,6 +31,8 @@ from tqdm.auto import tqdm
 from motionlab.paths import cache_path
 from motionlab.profiles import get_profile
 from motionlab.representation import Normalizer, joints_to_features, recover_from_ric
+from motionlab.train.cache import check_may_train
+from motionlab.train.progress import bars_enabled
 
 from .captions import caption_line
 from .generator import FAMILIES, VERSION, generate_clip
@@ -125,7 +127,7 @@ def _write_into(folder: Path, n_clips: int, seed: int, progress: bool, workers: 
         (folder / sub).mkdir()
     train = set(splits["train"])
     train_features, clips_meta = [], {}
-    bar = tqdm(total=n_clips, desc="embedded dataset", unit="clip", disable=not progress)
+    bar = tqdm(total=n_clips, desc="embedded dataset", unit="clip", disable=not (progress and bars_enabled()))
     for index, (features, joints, lines, meta) in enumerate(_build_all(seed, specs, workers)):
         cid = clip_id(index)
         np.save(folder / "new_joint_vecs" / f"{cid}.npy", features)
@@ -200,6 +202,7 @@ def ensure_embedded(profile: str | None = None, seed: int = 0, progress: bool = 
     path = embedded_path(profile, seed)
     if (path / "meta.json").is_file():
         return path
+    check_may_train(f"the embedded dataset {path.name}")
     n = EMBEDDED_SIZES[get_profile(profile)]
     try:
         return write_embedded_dataset(path, n, seed=seed, progress=progress, overwrite=path.exists())

@@ -1,0 +1,289 @@
+"""Train a set of models that depend on one another, several at a time, each in its own process.
+
+A :class:`Job` names a model, the jobs it needs first (``after``), a picklable function that trains it
+(or loads it when cached) and the expected seconds. :func:`run_plan` skips what is already cached, starts
+every job whose inputs are ready in a worker process (up to ``jobs`` at once, one torch thread each: on a
+2-core machine two 1-thread processes are faster and better behaved than one 2-thread process), prints
+one progress line per model and returns a table of times.
+
+Nothing here knows about motion: :mod:`motionlab.book_models` lists the book's models. Interrupting a
+plan is safe: each model publishes its cache folder by one atomic rename when it is done (see
+:mod:`motionlab.train.cache`), so a second run skips what finished and retrains (or resumes) the rest.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import sys
+import time
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from typing import Any, TextIO
+
+from .progress import add_progress_hook, disable_bars
+
+_REPORT_EVERY_S = 2.0  # how often a worker forwards its step count
+
+
+@dataclass(frozen=True)
+class Job:
+    """One model to train: ``run()`` trains it or loads it; ``is_cached()`` says whether it may be skipped."""
+
+    name: str
+    run: Callable[[], Any]
+    after: tuple[str, ...] = ()
+    estimate_s: float = 0.0  # expected training seconds on one core of the reference machine
+    is_cached: Callable[[], bool] | None = None
+
+
+@dataclass
+class JobResult:
+    name: str
+    status: str  # "cached" | "trained" | "failed" | "skipped" (an input failed) | "interrupted"
+    seconds: float = 0.0
+    cpu_seconds: float = 0.0
+    estimate_s: float = 0.0
+    error: str = ""
+
+
+@dataclass
+class _Running:
+    job: Job
+    started: float
+    step: int = 0
+    total: int = 0
+    last_line: float = field(default=0.0)
+
+
+def check_plan(jobs: Sequence[Job]) -> None:
+    """Names unique, every ``after`` known and earlier in the list (so the list is a valid order)."""
+    seen: set[str] = set()
+    for job in jobs:
+        if job.name in seen:
+            raise ValueError(f"job {job.name!r} appears twice in the plan")
+        missing = [dep for dep in job.after if dep not in seen]
+        if missing:
+            raise ValueError(f"job {job.name!r} needs {missing}, which are not listed before it")
+        seen.add(job.name)
+
+
+def missing_jobs(jobs: Sequence[Job]) -> list[Job]:
+    """The jobs whose models are not in the cache yet, in plan order."""
+    return [job for job in jobs if job.is_cached is None or not job.is_cached()]
+
+
+def format_minutes(seconds: float) -> str:
+    return f"{seconds / 60:.1f} min"
+
+
+def plan_line(jobs: Sequence[Job], workers: int = 1) -> str:
+    """One sentence saying what will be trained and roughly how long it takes (``""`` when nothing is missing)."""
+    todo = missing_jobs(jobs)
+    if not todo:
+        return ""
+    total = sum(job.estimate_s for job in todo)
+    wall = expected_wall_seconds(todo, workers)
+    names = ", ".join(job.name for job in todo)
+    when = f"about {format_minutes(wall)}" + (f" with {workers} workers" if workers > 1 else "")
+    return (f"to train first ({len(todo)} models, {format_minutes(total)} of CPU on a 2-core reference machine, "
+            f"{when}): {names}")
+
+
+def expected_wall_seconds(jobs: Sequence[Job], workers: int) -> float:
+    """Wall time of a greedy schedule of ``jobs`` on ``workers`` workers, from their estimates."""
+    names = {job.name for job in jobs}
+    finish: dict[str, float] = {}
+    free = [0.0] * max(1, workers)
+    for job in jobs:  # plan order is a valid order; greedy list scheduling
+        ready = max((finish[d] for d in job.after if d in names), default=0.0)
+        slot = min(range(len(free)), key=free.__getitem__)
+        start = max(free[slot], ready)
+        finish[job.name] = free[slot] = start + job.estimate_s
+    return max(finish.values(), default=0.0)
+
+
+# -- worker side ---------------------------------------------------------------------------------------------------
+_queue: Any = None
+
+
+def _init_worker(queue: Any, threads: int) -> None:
+    """Runs once in each worker process: one torch thread, no progress bars, steps forwarded to the parent."""
+    global _queue
+    _queue = queue
+    disable_bars()
+    import torch
+
+    torch.set_num_threads(threads)
+
+
+def _run_job(name: str, run: Callable[[], Any]) -> tuple[float, float]:
+    last = [0.0]
+
+    def forward(_desc: str, step: int, total: int) -> None:
+        now = time.monotonic()
+        if now - last[0] >= _REPORT_EVERY_S or step == total:
+            last[0] = now
+            _queue.put((name, step, total))
+
+    add_progress_hook(forward)
+    start, cpu = time.perf_counter(), time.process_time()
+    run()
+    return time.perf_counter() - start, time.process_time() - cpu
+
+
+# -- parent side ---------------------------------------------------------------------------------------------------
+def run_plan(
+    jobs: Sequence[Job],
+    workers: int = 2,
+    *,
+    threads: int = 1,
+    out: TextIO | None = None,
+    line_every_s: float = 30.0,
+) -> list[JobResult]:
+    """Train every job that is not cached, ``workers`` at a time; returns one :class:`JobResult` per job.
+
+    Prints a line when a model starts, every ``line_every_s`` while it trains (step, elapsed, estimated
+    remaining) and when it ends. A failed job fails the jobs after it (``skipped``); the others go on.
+    On Ctrl-C the workers stop, finished models stay cached, and ``KeyboardInterrupt`` is re-raised.
+    """
+    check_plan(jobs)
+    if workers < 1 or threads < 1:
+        raise ValueError(f"workers and threads must be >= 1, got workers={workers}, threads={threads}")
+    results = {job.name: JobResult(job.name, "cached", estimate_s=job.estimate_s) for job in jobs}
+    pending = missing_jobs(jobs)
+    for job in pending:
+        results[job.name].status = "pending"
+    if pending:
+        out = out or sys.stdout
+        print(plan_line(jobs, workers), file=out, flush=True)
+        # Workers are spawned lazily and inherit the environment: one OpenMP thread each.
+        with _environment(OMP_NUM_THREADS=str(threads)):
+            _Scheduler(results, workers, threads, out, line_every_s).run(pending)
+    return [results[job.name] for job in jobs]
+
+
+class _Scheduler:
+    """Starts jobs whose inputs are done, collects results and progress, prints the lines."""
+
+    def __init__(self, results: dict[str, JobResult], workers: int, threads: int, out: TextIO, line_every_s: float):
+        self.results, self.workers, self.out, self.line_every_s = results, workers, out, line_every_s
+        self.done = {name for name, r in results.items() if r.status == "cached"}
+        self.running: dict[Future, _Running] = {}
+        self.t0 = time.monotonic()
+        context = multiprocessing.get_context("spawn")  # no inherited torch threads or locks
+        self.queue = context.Queue()
+        self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_init_worker,
+                                        initargs=(self.queue, threads), max_tasks_per_child=1)  # fmt: skip
+
+    def say(self, text: str) -> None:
+        elapsed = time.monotonic() - self.t0
+        print(f"[{int(elapsed // 60):3d}:{int(elapsed % 60):02d}] {text}", file=self.out, flush=True)
+
+    def run(self, pending: list[Job]) -> None:
+        try:
+            while pending or self.running:
+                self.start_ready(pending)
+                if self.running:
+                    finished, _ = wait(list(self.running), timeout=1.0, return_when=FIRST_COMPLETED)
+                    _drain(self.queue, self.running)
+                    for future in finished:
+                        self.collect(future)
+                    self.report_progress()
+        except KeyboardInterrupt:
+            for state in self.running.values():
+                self.results[state.job.name].status = "interrupted"
+            self.pool.shutdown(wait=False, cancel_futures=True)
+            raise
+        finally:
+            self.pool.shutdown(wait=True, cancel_futures=True)
+
+    def start_ready(self, pending: list[Job]) -> None:
+        for job in list(pending):
+            failed_inputs = [d for d in job.after if self.results[d].status in ("failed", "skipped")]
+            if failed_inputs:
+                pending.remove(job)
+                self.results[job.name].status = "skipped"
+                self.results[job.name].error = f"needs {', '.join(failed_inputs)}"
+                self.say(f"{job.name}: skipped (it needs {', '.join(failed_inputs)}, which failed)")
+            elif len(self.running) < self.workers and all(d in self.done for d in job.after):
+                pending.remove(job)
+                self.running[self.pool.submit(_run_job, job.name, job.run)] = _Running(job, time.monotonic())
+                self.say(f"{job.name}: started (expected {format_minutes(job.estimate_s)})")
+
+    def collect(self, future: Future) -> None:
+        state = self.running.pop(future)
+        result = self.results[state.job.name]
+        result.seconds = time.monotonic() - state.started
+        try:
+            _, result.cpu_seconds = future.result()
+        except Exception as error:  # noqa: BLE001 - reported in the table; the jobs after it are skipped
+            result.status, result.error = "failed", f"{type(error).__name__}: {error}"
+            self.say(f"{state.job.name}: FAILED after {format_minutes(result.seconds)}: {result.error}")
+            return
+        result.status = "trained"
+        self.done.add(state.job.name)
+        self.say(f"{state.job.name}: done in {format_minutes(result.seconds)}")
+
+    def report_progress(self) -> None:
+        now = time.monotonic()
+        for state in self.running.values():
+            if now - state.last_line >= self.line_every_s and now - state.started >= self.line_every_s:
+                state.last_line = now
+                self.say(_progress_text(state, now))
+
+
+@contextmanager
+def _environment(**values: str) -> Iterator[None]:
+    saved = {key: os.environ.get(key) for key in values}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+
+
+def _drain(queue: Any, running: dict[Future, _Running]) -> None:
+    by_name = {state.job.name: state for state in running.values()}
+    while not queue.empty():
+        try:
+            name, step, total = queue.get_nowait()
+        except Exception:  # noqa: BLE001 - an empty or closed queue just means no news
+            return
+        if name in by_name:
+            by_name[name].step, by_name[name].total = step, total
+
+
+def _progress_text(state: _Running, now: float) -> str:
+    elapsed = now - state.started
+    if state.total and state.step:
+        left = elapsed / state.step * (state.total - state.step)
+        return (f"{state.job.name}: step {state.step:,}/{state.total:,}, {format_minutes(elapsed)} elapsed, "
+                f"~{format_minutes(left)} left")
+    left = max(state.job.estimate_s - elapsed, 0.0)
+    return f"{state.job.name}: preparing, {format_minutes(elapsed)} elapsed, ~{format_minutes(left)} left (estimate)"
+
+
+def results_table(results: Sequence[JobResult]) -> str:
+    """The final table: one row per model with its status, wall and CPU time and the estimate."""
+    lines = [f"{'model':<34} {'status':<11} {'wall':>9} {'CPU':>9} {'expected':>9}"]
+    for r in results:
+        timed = r.status in ("trained", "failed")
+        wall = format_minutes(r.seconds) if timed else "-"
+        cpu = format_minutes(r.cpu_seconds) if r.status == "trained" else "-"
+        lines.append(f"{r.name:<34} {r.status:<11} {wall:>9} {cpu:>9} {format_minutes(r.estimate_s):>9}"
+                     + (f"  {r.error}" if r.error else ""))
+    trained = [r for r in results if r.status == "trained"]
+    if trained:
+        lines.append(f"{len(trained)} trained, {format_minutes(sum(r.cpu_seconds for r in trained))} of CPU in all")
+    return "\n".join(lines)
+
+
+__all__ = ["Job", "JobResult", "check_plan", "expected_wall_seconds", "missing_jobs", "plan_line", "results_table",
+           "run_plan"]  # fmt: skip
