@@ -296,7 +296,7 @@ def _previous_meta(out: Path) -> dict | None:
 
 
 def _prepare_out(out: Path, folder: Path, force: bool) -> tuple[dict | None, bool]:
-    """Judge ``out`` before any work: (meta of a run to resume or None, whether ``out`` is created now)."""
+    """Judge ``out`` before any work: (meta of a run to resume or None, whether ``out`` holds nothing yet)."""
     resolved, source = out.resolve(), folder.resolve()
     if resolved == source or resolved in source.parents:
         raise ValueError(f"out {out} must not be the BVH folder or a folder above it")
@@ -306,7 +306,7 @@ def _prepare_out(out: Path, folder: Path, force: bool) -> tuple[dict | None, boo
     if not os.access(existing, os.W_OK):
         raise ValueError(f"cannot write to {existing} (out {out})")
     if not out.exists() or not any(out.iterdir()):
-        return None, not out.exists()
+        return None, True
     previous = _previous_meta(out)
     if force:
         shutil.rmtree(out)
@@ -378,7 +378,8 @@ def dataset_from_bvh(
     rig = resolve_rig(mapping, scale, up)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
-    previous, created = _prepare_out(out, folder, force)
+    previous, fresh = _prepare_out(out, folder, force)
+    existed = out.exists()
 
     plans, skipped, notes = plan_clips(takes, table)
     settings = {"fps": FPS, "rig": rig.name, "joint_map": dict(rig.joint_map), "scale": rig.scale, "up": rig.up,
@@ -422,8 +423,10 @@ def dataset_from_bvh(
     meta["clips"] = {i: meta["clips"][i] for i in ids}
     _remove_other_clips(out, set(ids))
     if not ids:
-        if created:
+        if fresh:  # leave ``out`` as it was: absent or empty
             shutil.rmtree(out, ignore_errors=True)
+            if existed:
+                out.mkdir()
         else:
             _write_meta(out, meta)
         reasons = "; ".join(f"{name}: {why}" for name, why in list(skipped.items())[:5])
