@@ -91,6 +91,9 @@ def test_folder_becomes_a_checked_dataset_and_bad_takes_are_reported(takes, tmp_
         (cap,) = read_captions(out / "texts" / f"{cid}.txt")
         assert cap.text == caption and cap.tokens and (cap.start, cap.end) == (0.0, 0.0)
 
+    # Tokens as the embedded generator tags them; words outside its lexicon get spaCy's "other" tag X.
+    assert read_captions(out / "texts" / "WaveHello.txt")[0].tokens == ("wave/X", "hello/NOUN")
+
     splits = {s: read_split_ids(out, s) for s in ("train", "val", "test", "all")}
     assert sorted(splits["train"] + splits["val"] + splits["test"]) == splits["all"] == sorted(ids)
     assert [len(splits[s]) for s in ("train", "val", "test")] == [3, 1, 1]
