@@ -41,6 +41,23 @@ def _data_make_embedded(args: argparse.Namespace) -> int:
     return 0
 
 
+def _data_from_bvh(args: argparse.Namespace) -> int:
+    from .data.from_bvh import dataset_from_bvh
+
+    try:
+        report = dataset_from_bvh(args.folder, args.out, captions=args.captions, mapping=args.mapping,
+                                  scale=args.scale, up=args.up, seed=args.seed, force=args.force)  # fmt: skip
+    except FileExistsError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"\ninterrupted: the clips converted so far are kept in {args.out}; the same command resumes",
+              file=sys.stderr)  # fmt: skip
+        return 130
+    print(report.summary())
+    return 0
+
+
 def _train(args: argparse.Namespace) -> int:
     from .data import load_dataset
     from .evaluation import FLOW_TRAINING_OPTIONS
@@ -342,7 +359,7 @@ def build_parser() -> argparse.ArgumentParser:
                              "faster when other programs share the CPU")  # fmt: skip
     sub = parser.add_subparsers(dest="command", required=True)
 
-    data = sub.add_parser("data", help="datasets: generate the embedded one, check a folder")
+    data = sub.add_parser("data", help="datasets: generate the embedded one, check a folder, convert BVH takes")
     data_sub = data.add_subparsers(dest="data_command", required=True)
 
     check = data_sub.add_parser("check", help="validate a HumanML3D/KIT-ML folder and list what is missing")
@@ -356,6 +373,24 @@ def build_parser() -> argparse.ArgumentParser:
     make.add_argument("--out", type=Path, default=None, help="write here instead of the cache (must not exist)")
     make.add_argument("--clips", type=int, default=None, help="number of clips (with --out)")
     make.set_defaults(func=_data_make_embedded)
+
+    from_bvh = data_sub.add_parser(
+        "from-bvh", help="convert a folder of BVH takes into a HumanML3D-layout dataset (resumable)",
+        description="Your own mocap as a dataset the book trains on (train ... --data DATASET): every .bvh in "
+                    "FOLDER becomes new_joints, new_joint_vecs and texts; then splits and Mean/Std. A re-run "
+                    "converts only new or changed takes. Skipped takes are listed with the reason.",
+    )  # fmt: skip
+    from_bvh.add_argument("folder", type=Path, help="folder with the .bvh takes (not searched recursively)")
+    from_bvh.add_argument("--out", type=Path, required=True, help="the dataset folder to write (or resume)")
+    from_bvh.add_argument("--captions", type=Path, default=None,
+                          help="CSV with columns take,caption[,start,end] (crop in frames at 20 fps); "
+                               "default: captions from the file names")  # fmt: skip
+    from_bvh.add_argument("--mapping", default="cmu", choices=["cmu", "t2m"], help="joint names of the BVH rig")
+    from_bvh.add_argument("--scale", type=float, default=None, help="BVH units to metres (default: the rig's)")
+    from_bvh.add_argument("--up", choices=["y", "z"], default=None, help="up axis of the BVH (default: y)")
+    from_bvh.add_argument("--seed", type=int, default=0, help="seeds the train/val/test split (default: 0)")
+    from_bvh.add_argument("--force", action="store_true", help="replace an existing non-empty --out folder")
+    from_bvh.set_defaults(func=_data_from_bvh)
 
     train = sub.add_parser("train", help="train a model of the book (or load it if already trained); resumable")
     train.add_argument("model", choices=["vq", "rvq", "evaluator", "discord", "diffusion", "book"],

@@ -56,7 +56,7 @@ SUBJECTS = ("a person", "the person", "someone", "a man", "a woman", "a figure",
 _PRONOUN = {"a man": "he", "the man": "he", "a woman": "she"}
 
 
-def _tag_word(words: list[str], i: int) -> str:
+def _tag_word(words: list[str], i: int, unknown: str | None = None) -> str:
     w = words[i]
     if w in _SIDE_WORDS:
         prev, nxt = (words[i - 1] if i else ""), (words[i + 1] if i + 1 < len(words) else "")
@@ -72,13 +72,19 @@ def _tag_word(words: list[str], i: int) -> str:
         return f"{_NOUNS[w]}/NOUN"
     if w in _OTHER:
         return f"{w}/{_OTHER[w]}"
+    if unknown is not None:
+        return f"{w}/{unknown}"
     raise ValueError(f"the caption lexicon has no entry for {w!r}; add it to captions.py")
 
 
-def tag(caption: str) -> list[str]:
-    """``lemma/POS`` tokens of a caption's alphabetic words, e.g. ``["a/DET", "person/NOUN", "walk/VERB"]``."""
+def tag(caption: str, unknown: str | None = None) -> list[str]:
+    """``lemma/POS`` tokens of a caption's alphabetic words, e.g. ``["a/DET", "person/NOUN", "walk/VERB"]``.
+
+    A word outside the lexicon raises, unless ``unknown`` names the tag it gets instead (captions written
+    by people, e.g. ``"X"``, spaCy's "other"; the word itself is kept, lower-cased, as its lemma).
+    """
     words = re.findall(r"[a-z]+", caption.lower())
-    return [_tag_word(words, i) for i in range(len(words))]
+    return [_tag_word(words, i, unknown) for i in range(len(words))]
 
 
 def caption_line(caption: str) -> str:

@@ -34,11 +34,11 @@ from motionlab.representation import Normalizer, joints_to_features, recover_fro
 from motionlab.train.cache import check_may_train
 from motionlab.train.progress import bars_enabled
 
+from ..writing import SPLIT_FRACTIONS, make_layout, stratified_split, write_clip, write_split_files
 from .captions import caption_line
 from .generator import FAMILIES, VERSION, generate_clip
 
 EMBEDDED_SIZES = {"smoke": 420, "laptop": 3000, "full": 6000}
-SPLIT_FRACTIONS = {"train": 0.80, "val": 0.05, "test": 0.15}
 CHAIN_FRACTION = 0.15  # share of clips that chain two actions ("walks forward and then waves")
 
 
@@ -69,19 +69,10 @@ def plan_families(n_clips: int, seed: int) -> list[str]:
 
 def stratified_splits(specs: list[str], seed: int) -> dict[str, list[str]]:
     """Ids per split, ~80/5/15 within each first family, with at least one clip of each family per split."""
-    rng = _rng(seed, 2)
-    by_family: dict[str, list[int]] = {}
+    by_family: dict[str, list[str]] = {}
     for i, spec in enumerate(specs):
-        by_family.setdefault(spec.split("+")[0], []).append(i)
-    splits: dict[str, list[str]] = {name: [] for name in SPLIT_FRACTIONS}
-    for family in sorted(by_family):
-        idx = rng.permutation(by_family[family])
-        n_val = max(1, round(SPLIT_FRACTIONS["val"] * len(idx)))
-        n_test = max(1, round(SPLIT_FRACTIONS["test"] * len(idx)))
-        splits["val"] += [clip_id(i) for i in idx[:n_val]]
-        splits["test"] += [clip_id(i) for i in idx[n_val : n_val + n_test]]
-        splits["train"] += [clip_id(i) for i in idx[n_val + n_test :]]
-    return {name: sorted(ids) for name, ids in splits.items()}
+        by_family.setdefault(spec.split("+")[0], []).append(clip_id(i))
+    return stratified_split(by_family, _rng(seed, 2), SPLIT_FRACTIONS)
 
 
 def build_clip(seed: int, index: int, spec: str) -> tuple[np.ndarray, np.ndarray, list[str], dict]:
@@ -123,23 +114,19 @@ def _build_all(seed: int, specs: list[str], workers: int) -> Iterator[tuple]:
 def _write_into(folder: Path, n_clips: int, seed: int, progress: bool, workers: int) -> None:
     specs = plan_families(n_clips, seed)
     splits = stratified_splits(specs, seed)
-    for sub in ("new_joint_vecs", "new_joints", "texts"):
-        (folder / sub).mkdir()
+    make_layout(folder)
     train = set(splits["train"])
     train_features, clips_meta = [], {}
     bar = tqdm(total=n_clips, desc="embedded dataset", unit="clip", disable=not (progress and bars_enabled()))
     for index, (features, joints, lines, meta) in enumerate(_build_all(seed, specs, workers)):
         cid = clip_id(index)
-        np.save(folder / "new_joint_vecs" / f"{cid}.npy", features)
-        np.save(folder / "new_joints" / f"{cid}.npy", joints)
-        (folder / "texts" / f"{cid}.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
+        write_clip(folder, cid, features, joints, lines)
         if cid in train:
             train_features.append(features)
         clips_meta[cid] = meta
         bar.update()
     bar.close()
-    for name, ids in {**splits, "all": sorted(clips_meta)}.items():
-        (folder / f"{name}.txt").write_text("\n".join(ids) + "\n", encoding="utf-8")
+    write_split_files(folder, {**splits, "all": sorted(clips_meta)})
     split_of = {cid: name for name, ids in splits.items() for cid in ids}
     for cid in clips_meta:
         clips_meta[cid]["split"] = split_of[cid]
