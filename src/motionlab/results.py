@@ -436,7 +436,7 @@ CLAIMS: tuple[Claim, ...] = (
           mechanism=(
               Evidence("largest TV between rows of the dynamic and the uniform forward process Q̄_t (η = 0.25, 0.5, 2; "
                        "at most K·β̄_T)", ("transitions/max_tv_eta0.25", "transitions/max_tv_eta0.5",
-                                           "transitions/max_tv_eta2", "transitions/kbeta_bar_T")),
+                                           "transitions/max_tv_eta2", "transitions/kbeta_bar_t")),
               Evidence("FID dynamic − uniform, interval over training seeds",
                        ("transitions/fid_dynamic_minus_uniform",)),
               Evidence("FID gap between two training seeds of the same model (paired over repeats)",
