@@ -331,6 +331,22 @@ Rule = Less | Greater | Between | Increasing | Within
 
 
 @dataclass(frozen=True)
+class Evidence:
+    """A measured quantity that explains a verdict (the *mechanism*, not the verdict): a label and the keys shown.
+
+    It never changes the verdict; the table prints ``label: key = value, ...`` from the recorded numbers.
+    """
+
+    label: str
+    keys: tuple[str, ...]
+
+    def format(self, recorded: Mapping[str, Result]) -> str:
+        parts = [f"{k.split('/', 1)[-1]} = {recorded[k].format()}" if k in recorded else f"{k.split('/', 1)[-1]}: —"
+                 for k in self.keys]  # fmt: skip
+        return f"{self.label}: " + ", ".join(parts)
+
+
+@dataclass(frozen=True)
 class Claim:
     """A claim of a paper, the paper's numbers, and the rule that judges it on our numbers."""
 
@@ -339,10 +355,15 @@ class Claim:
     statement: str
     paper_value: str
     rule: Rule
+    mechanism: tuple[Evidence, ...] = ()  # what our measurements say about *why* the claim holds or fails
 
     @property
     def keys(self) -> tuple[str, ...]:
         return self.rule.keys
+
+    @property
+    def mechanism_keys(self) -> tuple[str, ...]:
+        return tuple(k for e in self.mechanism for k in e.keys)
 
     @property
     def chapter(self) -> str:
@@ -411,9 +432,29 @@ CLAIMS: tuple[Claim, ...] = (
           "Jerk 1.238 vs 1.265 (T_s = 90)", Less("tps/jerk_tps", "tps/jerk_tps_uniform")),
     Claim("M2D2M", "Table 3", "Dynamic transition probabilities improve single-motion FID over uniform ones.",
           "FID 0.087 (β(t,d)) vs 0.115 (β_t); KIT-ML 0.378 vs 0.404",
-          Less("transitions/fid_dynamic", "transitions/fid_uniform")),
+          Less("transitions/fid_dynamic", "transitions/fid_uniform"),
+          mechanism=(
+              Evidence("largest TV between rows of the dynamic and the uniform forward process Q̄_t (η = 0.25, 0.5, 2; "
+                       "at most K·β̄_T)", ("transitions/max_tv_eta0.25", "transitions/max_tv_eta0.5",
+                                           "transitions/max_tv_eta2", "transitions/kbeta_bar_t")),
+              Evidence("FID dynamic − uniform, interval over training seeds",
+                       ("transitions/fid_dynamic_minus_uniform",)),
+              Evidence("FID gap between two training seeds of the same model (paired over repeats)",
+                       ("transitions/fid_seed_gap_dynamic", "transitions/fid_seed_gap_uniform")),
+          )),
     Claim("M2D2M", "Supp. Table 2", "Classifier-free guidance improves single-motion fidelity.",
-          "FID 0.107 (s = 0) → 0.087 (s = 4)", Less("diffusion/fid_guided", "diffusion/fid_unguided")),
+          "FID 0.107 (s = 0) → 0.087 (s = 4)", Less("diffusion/fid_guided", "diffusion/fid_unguided"),
+          mechanism=(
+              Evidence("NLL of the true code at t = T: unconditional branch vs the code frequencies' entropy",
+                       ("diffusion/nll_uncond_xt", "diffusion/unigram_entropy")),
+              Evidence("entropy of p(x0 | x_T) (nats), s = 0 → 4",
+                       ("diffusion/entropy_xt_s0", "diffusion/entropy_xt_s4")),
+              Evidence("code-histogram TV to the real tokens, s = 0 → 4",
+                       ("diffusion/hist_tv_s0", "diffusion/hist_tv_s4")),
+              Evidence("adjacent repeats: real, s = 0, s = 4",
+                       ("diffusion/repeat_rate_real", "diffusion/repeat_rate_s0", "diffusion/repeat_rate_s4")),
+              Evidence("R-Top3, s = 0 → 4", ("diffusion/top3_unguided", "diffusion/top3_guided")),
+          )),
 )
 
 
@@ -467,6 +508,7 @@ class ClaimRow:
     ours: str
     verdict: str
     missing: tuple[str, ...] = ()
+    mechanism: str = ""  # one line per Evidence, from the recorded numbers ("" when the claim has none)
 
 
 @dataclass
@@ -494,8 +536,10 @@ class ClaimsTable:
                  "<thead><tr><th>Verdict</th><th>Claim</th><th>Paper</th><th>Ours</th></tr></thead><tbody>"]
         for row in self.rows:
             verdict = f'<td style="color:{colour[row.verdict]};font-weight:bold">{esc(row.verdict)}</td>'
+            why = "".join(f"<br><small><i>measured mechanism:</i> {esc(line)}</small>"
+                          for line in row.mechanism.split("\n") if line)  # fmt: skip
             claim = (f"<td>{esc(row.statement)}<br><small>{esc(row.paper)}, {esc(row.source)} &middot; "
-                     f"chapter {esc(row.chapter)}</small></td>")
+                     f"chapter {esc(row.chapter)}</small>{why}</td>")
             ours = "<br>".join(f'<code style="overflow-wrap:anywhere">{esc(line)}</code>'
                                for line in row.ours.split("\n"))
             lines.append(f"<tr>{verdict}{claim}<td>{esc(row.paper_value)}</td><td>{ours}</td></tr>")
@@ -503,9 +547,10 @@ class ClaimsTable:
         return "\n".join(lines)
 
     def to_markdown(self) -> str:
-        out = ["| Paper | Where | Claim | Paper | Ours | Verdict |", "|---|---|---|---|---|---|"]
+        out = ["| Paper | Where | Claim | Paper | Ours | Verdict | Measured mechanism |", "|---" * 7 + "|"]
         for r in self.rows:
-            cells = (r.paper, r.source, r.statement, r.paper_value, r.ours.replace("\n", "; "), r.verdict)
+            cells = (r.paper, r.source, r.statement, r.paper_value, r.ours.replace("\n", "; "), r.verdict,
+                     r.mechanism.replace("\n", "; "))
             out.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
         return "\n".join(out)
 
@@ -519,8 +564,9 @@ def judge(claim: Claim, recorded: Mapping[str, Result]) -> ClaimRow:
     ours = "\n".join(f"{label[k]} = {recorded[k].format()}" if k in recorded else f"{label[k]}: —"
                       for k in claim.keys)
     verdict = MISSING if missing else claim.rule.judge(recorded)
+    mechanism = "\n".join(e.format(recorded) for e in claim.mechanism)
     return ClaimRow(claim.paper, claim.source, claim.statement, claim.paper_value, claim.rule.describe(),
-                    claim.chapter, ours, verdict, missing)
+                    claim.chapter, ours, verdict, missing, mechanism)
 
 
 def claims_table(profile: str | None = None, recorded: Mapping[str, Result] | None = None,

@@ -174,3 +174,24 @@ def test_claims_table_uses_recorded_numbers(results_root):
     assert rows["discord/sjpe_rf < discord/sjpe_ff"].verdict == HOLDS
     assert rows["tps/jerk_gt_concat > tps/jerk_gt_single"].verdict == FAILS
     assert "<script" not in results.claims_table("smoke")._repr_html_()
+
+
+def test_mechanism_rows_show_recorded_numbers_and_never_change_the_verdict(results_root):
+    from motionlab.results import Evidence
+
+    claim = Claim("P", "T", "guidance helps", "1 vs 2", Less("c/a", "c/b"),
+                  mechanism=(Evidence("entropy, s = 0 → 4", ("c/h0", "c/h4")), Evidence("repeats", ("c/rep",))))
+    rec = {"c/a": r(2.0, key="a"), "c/b": r(1.0, key="b"), "c/h0": r(3.74, key="h0"), "c/h4": r(1.22, key="h4")}
+    row = results.judge(claim, rec)
+    assert row.verdict == FAILS  # the mechanism explains, it does not judge
+    assert row.mechanism == "entropy, s = 0 → 4: h0 = 3.74, h4 = 1.22\nrepeats: rep: —"
+    assert claim.mechanism_keys == ("c/h0", "c/h4", "c/rep")
+    assert results.judge(Claim("P", "T", "s", "v", Less("c/a", "c/b")), rec).mechanism == ""
+    # The guidance and dynamic-β claims of M2D2M carry their mechanism, on keys of their own chapters.
+    explained = {c.rule.describe(): c for c in CLAIMS if c.mechanism}
+    assert {"diffusion/fid_guided < diffusion/fid_unguided", "transitions/fid_dynamic < transitions/fid_uniform"} \
+        <= set(explained)
+    for c in explained.values():
+        assert all(k.split("/")[0] == c.keys[0].split("/")[0] for k in c.mechanism_keys)
+    table = results.ClaimsTable([row], "smoke")
+    assert "measured mechanism" in table._repr_html_() and "h4 = 1.22" in table.to_markdown()

@@ -12,10 +12,12 @@ from motionlab.diffusion import (
     TextToMotion,
     TextToMotionNetworks,
     TokenBatches,
+    TokenRecorder,
     diffusion_training_config,
     evaluate_ground_truth,
     evaluate_text_to_motion,
     make_transitions,
+    sample,
     text_to_motion_for_dataset,
     tokenize_clips,
 )
@@ -88,6 +90,56 @@ def test_batching_does_not_change_the_shapes_or_the_codes_range(pipe):
 def test_bad_inputs_raise_value_errors(pipe, texts, lengths, match):
     with pytest.raises(ValueError, match=match):
         pipe.generate(texts, lengths, seed=0, num_steps=2)
+
+
+@pytest.fixture(scope="module")
+def loud_pipe() -> TextToMotion:
+    """The tiny pipeline with large random weights, so that guided and unguided branches differ visibly."""
+    pipe = tiny_pipeline()
+    g = torch.Generator().manual_seed(5)
+    with torch.no_grad():
+        for p in [*pipe.model.parameters(), *pipe.text_encoder.parameters()]:
+            if p.ndim >= 2:
+                p.normal_(0.0, 0.3, generator=g)
+    return pipe
+
+
+def test_sample_tokens_passes_guidance_on_to_the_sampler(loud_pipe):
+    lengths = [16, 24, 20]
+    kw = dict(num_steps=4, guidance_scale=4.0)
+    feats = loud_pipe.encode_texts(CAPTIONS)
+    ids = {}
+    for space in ("x0", "posterior"):
+        ids[space] = loud_pipe.sample_tokens(CAPTIONS, lengths, generator=torch.Generator().manual_seed(0),
+                                             guidance_on=space, **kw)  # fmt: skip
+        direct = sample(loud_pipe.model, loud_pipe.transitions, feats.tokens, feats.padding_mask,
+                        lengths=[n // 4 for n in lengths], generator=torch.Generator().manual_seed(0),
+                        guidance_on=space, **kw)  # fmt: skip
+        assert torch.equal(ids[space], direct)
+    default = loud_pipe.sample_tokens(CAPTIONS, lengths, generator=torch.Generator().manual_seed(0), **kw)
+    assert torch.equal(default, ids["x0"])  # VQ-Diffusion's placement is the default
+    assert not torch.equal(ids["x0"], ids["posterior"])
+    motions = loud_pipe.generate(CAPTIONS, lengths, seed=0, guidance_on="posterior", **kw)
+    assert [m.shape for m in motions] == [(n, 263) for n in lengths]
+    with pytest.raises(ValueError, match="guidance_on"):
+        loud_pipe.generate(CAPTIONS, lengths, seed=0, guidance_on="logits", **kw)
+
+
+def test_generate_with_tokens_returns_the_decoded_tokens_and_the_recorder_keeps_them(loud_pipe):
+    lengths = [16, 8, 12]
+    motions, ids = loud_pipe.generate_with_tokens(CAPTIONS, lengths, seed=2, num_steps=3)
+    again = loud_pipe.generate(CAPTIONS, lengths, seed=2, num_steps=3)
+    assert all(np.array_equal(a, b) for a, b in zip(motions, again, strict=True))
+    assert all(np.array_equal(m, d) for m, d in zip(motions, loud_pipe.decode(ids), strict=True))
+    assert ids.shape == (3, 4) and (ids[1, 2:] == -1).all()
+
+    recorder = TokenRecorder(loud_pipe)
+    runs = evaluate_text_to_motion(recorder, RecordingEvaluator(), [Clip(16, [Caption("a")]), Clip(9, [Caption("b")])],
+                                   repeats=2, seed=0, num_steps=3)  # fmt: skip
+    assert len(runs) == 2 and len(recorder.tokens) == 2
+    assert [len(s) for s in recorder.all_tokens()] == [4, 2, 4, 2]
+    with pytest.raises(ValueError, match="TextToMotion"):
+        TokenRecorder(object())
 
 
 def test_decode_rejects_ids_that_are_not_codes_then_padding(pipe):
@@ -179,6 +231,30 @@ def test_eta_and_distance_enter_the_cache_key(isolated_cache):
     assert key(eta=0.5) != key(eta=0.5, schedule="vqdiffusion_code")
     assert key(eta=0.0, distance="l2_rank") == key(eta=0.0, distance="cosine")  # uniform: no distance
     assert key() == key(eta=0.5)  # the paper's η is the default
+
+
+def test_training_seed_enters_the_cache_key_and_seed_0_is_the_shared_model(isolated_cache, monkeypatch):
+    import motionlab.diffusion.pipeline as pipeline
+
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def fake_train_or_load(name, config, *args, **kwargs):
+        seen.append(config)
+        raise Stop
+
+    monkeypatch.setattr(pipeline, "train_or_load", fake_train_or_load)
+    dataset = MotionDataset(write_embedded_dataset(isolated_cache / "data", n_clips=42, progress=False, workers=1))
+    for seed in (None, 0, 1):
+        with pytest.raises(Stop):
+            text_to_motion_for_dataset(dataset, "smoke", seed=seed, progress=False)
+    key = lambda c: artefact_dir(MODEL_NAME, c, "smoke", {"data": "x"})  # noqa: E731
+    assert [c.seed for c in seen] == [0, 0, 1]
+    assert key(seen[0]) == key(seen[1]) != key(seen[2])
+    with pytest.raises(ValueError, match="seed"):
+        text_to_motion_for_dataset(dataset, "smoke", seed=-1, progress=False)
 
 
 # ---------------------------------------------------------------------------------------- end to end

@@ -128,3 +128,17 @@ def test_evaluate_methods_builds_table_rows(pipe):
         evaluate_methods(gen, instances, evaluator, reference, repeats=0)
     with pytest.raises(ValueError, match="'method'"):
         evaluate_methods(gen, instances, evaluator, reference, methods={"x": {"T_s": 5}})
+
+
+def test_generator_passes_joint_text_and_multi_motion_settings_are_the_papers(pipe, monkeypatch):
+    import motionlab.multimotion.generate as generate
+    from motionlab.multimotion import MULTI_MOTION_ETA, MULTI_MOTION_GUIDANCE
+
+    seen = []
+    real = generate.two_phase_sample
+    monkeypatch.setattr(generate, "two_phase_sample", lambda *a, **kw: seen.append(kw) or real(*a, **kw))
+    gen = MultiMotionGenerator(pipe.model, pipe.transitions, pipe.text_encoder, pipe.decode)
+    motions = gen.generate(TEXTS, [16, 20, 12], method="tps", T_s=3, seed=0, num_steps=5, joint_text="all")
+    assert seen[0]["joint_text"] == "all" and seen[0]["guidance_scale"] == MULTI_MOTION_GUIDANCE
+    assert len(motions[0].features) == 48 and motions[0].boundaries == [16, 36]
+    assert (MULTI_MOTION_ETA, MULTI_MOTION_GUIDANCE) == (0.25, 2.0)  # M2D2M appendix A.1

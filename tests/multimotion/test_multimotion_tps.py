@@ -181,3 +181,19 @@ def test_bad_inputs(tiny):
         two_phase_sample(model, tr, (text(2), None), [16, 16], T_s=5, joint_text="mine", **kw)
     with pytest.raises(ValueError, match="timesteps"):
         two_phase_sample(model, tr, (text(2), None), [16, 16], T_s=5, timesteps=[10, 5], **kw)
+
+
+def test_compound_condition_changes_only_the_joint_phase(tiny):
+    """joint_text="all" (every token sees every action's text) samples other tokens than "own" when there is a
+    joint phase, and exactly the same ones when there is none (T_s = T)."""
+    model, tr = tiny
+    lengths = [16, 24, 12]
+    kw = dict(generator=None, num_steps=5, **SAMPLING)
+    out = {}
+    for joint_text in ("own", "all"):
+        for ts in (T, 3):
+            kw["generator"] = gen(0)
+            out[joint_text, ts] = two_phase_sample(model, tr, (text(3), None), lengths, T_s=ts, joint_text=joint_text,
+                                                   **kw).ids  # fmt: skip
+    assert torch.equal(out["own", T], out["all", T])
+    assert not torch.equal(out["own", 3], out["all", 3])

@@ -2,9 +2,22 @@
 
 Read in this order: :mod:`.schedule` (α, β, γ), :mod:`.transitions` (the matrices Q_t, Q̄_t),
 :mod:`.posterior` (q(x_t|x_0), q(x_{t-1}|x_t,x_0), p_θ(x_{t-1}|x_t)), :mod:`.loss`, :mod:`.transformer`
-(the network), :mod:`.sampling`. Schedules and posteriors know nothing about the network.
+(the network), :mod:`.sampling`. Schedules and posteriors know nothing about the network. :mod:`.diagnostics`
+measures a trained model (entropy of p_θ(x_0|x_t) under guidance, token statistics, forward-process distances).
 """
 
+from .diagnostics import (
+    EntropyCurve,
+    TokenRecorder,
+    adjacent_repeat_rate,
+    code_entropy,
+    code_histogram,
+    dynamic_uniform_tv,
+    forward_tv,
+    histogram_tv,
+    token_rows,
+    x0_entropy,
+)
 from .loss import AUX_WEIGHT, DiffusionLoss, diffusion_loss, sample_timesteps, vb_terms
 from .pipeline import (
     TextToMotion,
@@ -75,4 +88,7 @@ __all__ = [
     "WordEncoderConfig", "diffusion_training_config", "evaluate_fixed_motions", "evaluate_ground_truth",
     "evaluate_text_to_motion", "generation_lengths", "make_transitions", "multimodality_score",
     "text_to_motion_for_dataset", "tokenize_clips", "train_text_to_motion",
+    # measurements of a trained model (diagnostics.py)
+    "EntropyCurve", "TokenRecorder", "adjacent_repeat_rate", "code_entropy", "code_histogram", "dynamic_uniform_tv",
+    "forward_tv", "histogram_tv", "token_rows", "x0_entropy",
 ]  # fmt: skip

@@ -36,6 +36,7 @@ from motionlab.diffusion.training import (
     make_transitions,
     tokenize_clips,
     train_text_to_motion,
+    with_overrides,
 )
 from motionlab.diffusion.transformer import DenoisingTransformer, TransformerConfig
 from motionlab.diffusion.transitions import Transitions
@@ -98,6 +99,7 @@ class TextToMotion:
         *,
         generator: torch.Generator,
         guidance_scale: float | None = None,
+        guidance_on: str = "x0",
         num_steps: int | None = None,
         top_p: float | None = None,
         top_k: int | None = None,
@@ -105,8 +107,10 @@ class TextToMotion:
     ) -> torch.LongTensor:
         """Token ids ``(B, max L)`` for each text, ``L = frames / 4``, padded with −1 (on CPU).
 
-        ``guidance_scale`` None uses the config's s (4 for single motions); ``num_steps`` None runs all T
-        steps (ancestral), fewer skip steps with exact posterior jumps. Texts are sampled ``batch_size`` at a
+        ``guidance_scale`` None uses the config's s (4 for single motions); ``guidance_on`` says where it acts:
+        ``"x0"`` on p_θ(x_0 | x_t) (VQ-Diffusion's code) or ``"posterior"`` on p_θ(x_{t-1} | x_t) (Eq. 9 as
+        printed). ``num_steps`` None runs all T steps (ancestral), fewer skip steps with exact posterior jumps;
+        ``top_p`` / ``top_k`` truncate p_θ(x_0 | x_t) at every step. Texts are sampled ``batch_size`` at a
         time, in order, from the one ``generator``.
         """
         texts = check_texts(texts)
@@ -123,8 +127,8 @@ class TextToMotion:
             feats = self.encode_texts(texts[s : s + batch_size])
             chunk = tokens[s : s + batch_size]
             ids = sample(self.model, self.transitions, feats.tokens, feats.padding_mask, lengths=chunk,
-                         generator=generator, num_steps=num_steps, guidance_scale=scale, top_p=top_p,
-                         top_k=top_k)  # fmt: skip
+                         generator=generator, num_steps=num_steps, guidance_scale=scale,
+                         guidance_on=guidance_on, top_p=top_p, top_k=top_k)  # fmt: skip
             out[s : s + len(chunk), : ids.shape[1]] = ids.cpu()
         return out
 
@@ -174,15 +178,27 @@ class TextToMotion:
     ) -> list[np.ndarray]:
         """Raw motions ``(lengths_in_frames[i], 263)`` for ``texts``; the same seed gives the same motions.
 
-        ``sampling``: ``guidance_scale``, ``num_steps``, ``top_p``, ``top_k``, ``batch_size`` (see
-        :meth:`sample_tokens`) and ``steps`` for a flow ``decoder``.
+        ``sampling``: ``guidance_scale``, ``guidance_on``, ``num_steps``, ``top_p``, ``top_k``, ``batch_size``
+        (see :meth:`sample_tokens`) and ``steps`` for a flow ``decoder``.
         """
+        return self.generate_with_tokens(texts, lengths_in_frames, seed=seed, decoder=decoder, **sampling)[0]
+
+    def generate_with_tokens(
+        self,
+        texts: Sequence[str],
+        lengths_in_frames: Sequence[int],
+        *,
+        seed: int = 0,
+        decoder: Any = None,
+        **sampling,
+    ) -> tuple[list[np.ndarray], torch.LongTensor]:
+        """:meth:`generate`, also returning the sampled token ids ``(B, max L)`` (−1 padding) it decoded."""
         if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
             raise ValueError(f"seed must be a non-negative int, got {seed!r}")
         steps = sampling.pop("steps", None)
         generator = torch.Generator().manual_seed(int(seed))
         ids = self.sample_tokens(texts, lengths_in_frames, generator=generator, **sampling)
-        return self.decode(ids, decoder, generator=generator, steps=steps)
+        return self.decode(ids, decoder, generator=generator, steps=steps), ids
 
 
 # ----------------------------------------------------------------------------------- train once, load after
@@ -221,6 +237,7 @@ def text_to_motion_for_dataset(
     progress: bool = True,
     device: str | None = None,
     config: DiffusionTrainingConfig | None = None,
+    seed: int | None = None,
     retrain: bool = False,
 ) -> TextToMotion:
     """The text-to-motion model of ``dataset`` for ``profile``, trained on first use and cached after.
@@ -229,6 +246,8 @@ def text_to_motion_for_dataset(
     ``eta`` None is the paper's 0.5; ``eta = 0`` is uniform β_t, a different cached model; ``distance`` and
     ``schedule`` choose d(·,·) and the noise schedule (:func:`diffusion_training_config`). ``config`` replaces
     the whole training config (then ``eta``/``distance``/``schedule`` must be left at their defaults).
+    ``seed`` (None: the config's, 0) is the training seed (initial weights, batches, noise): seed 0 is the one
+    cached model every chapter shares; other seeds are replicates that measure training-seed variance.
     """
     from motionlab.tokenizers import tokenizer_for_dataset
 
@@ -245,6 +264,10 @@ def text_to_motion_for_dataset(
                                            schedule=schedule)  # fmt: skip
     elif eta is not None or distance != "l2_rank" or schedule is not None:
         raise ValueError("pass either config= or eta/distance/schedule, not both")
+    if seed is not None:
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise ValueError(f"seed must be a non-negative int, got {seed!r}")
+        config = with_overrides(config, seed=int(seed))
     if config.transformer.num_codes != K:
         raise ValueError(
             f"config.transformer.num_codes={config.transformer.num_codes} but the tokenizer has {K} codes"

@@ -22,7 +22,7 @@ from .evaluation import (
     transition_jerk,
     transition_profile,
 )
-from .generate import METHODS, MultiMotion, MultiMotionGenerator
+from .generate import METHODS, MULTI_MOTION_ETA, MULTI_MOTION_GUIDANCE, MultiMotion, MultiMotionGenerator
 from .stitch import blend_segments, blend_weights, concatenate_segments, split_segments, transition_rows
 from .testset import MultiActionInstance, PoolClip, build_multi_action_testset, single_action_pool
 from .tps import (
@@ -39,7 +39,8 @@ from .tps import (
 )
 
 __all__ = [
-    "DEFAULT_TRANSITION", "JOINT_TEXTS", "JointCondition", "MAX_ACTIONS", "METHODS", "METRICS",
+    "DEFAULT_TRANSITION", "JOINT_TEXTS", "JointCondition", "MAX_ACTIONS", "METHODS", "METRICS", "MULTI_MOTION_ETA",
+    "MULTI_MOTION_GUIDANCE",
     "MultiActionInstance", "MultiMotion", "MultiMotionGenerator", "MultiMotionReference", "MultiMotionTokens",
     "PoolClip", "SegmentLayout", "blend_segments", "blend_weights", "build_multi_action_testset",
     "build_reference", "concatenate_segments", "evaluate_ground_truth_single", "evaluate_methods",

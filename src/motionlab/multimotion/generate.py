@@ -6,7 +6,10 @@ duck-typed: nothing is imported from the pipeline module) as well as with a tiny
 
 ``decode`` maps (B, L) token ids padded with −1 to a list of B raw feature arrays (4·L_b, D), the
 signature of ``TextToMotion.decode``. Unless a call passes ``guidance_scale``, M2D2M's multi-motion s = 2 is
-used (``TextToMotion`` defaults to the single-motion s = 4). Methods:
+used (``TextToMotion`` defaults to the single-motion s = 4). η is a property of the trained model, not of the
+sampler: M2D2M's multi-action model uses :data:`MULTI_MOTION_ETA` = 0.25, i.e.
+``text_to_motion_for_dataset(dataset, profile, eta=MULTI_MOTION_ETA)``. Extra keyword arguments reach the
+sampler, e.g. ``joint_text="all"`` for TPS (:func:`~motionlab.multimotion.two_phase_sample`). Methods:
 
 ==============  ===========================================================================================
 ``tps``         Two-Phase Sampling; the concatenated tokens are decoded as one sequence (Algorithm 1)
@@ -39,6 +42,7 @@ from motionlab.multimotion.tps import MultiMotionTokens, segment_layout, two_pha
 METHODS = ("tps", "independent", "separate", "slerp", "handshake")
 DEFAULT_TS_FRACTION = 0.9  # M2D2M: T_s = 90 of T = 100
 MULTI_MOTION_GUIDANCE = 2.0  # M2D2M's s for multi-motion (4 for single motions)
+MULTI_MOTION_ETA = 0.25  # M2D2M appendix A.1: η of β(t, d) for multi-action generation (0.5 for single motions)
 
 
 @dataclass

@@ -11,9 +11,10 @@ Given N action texts a¹…a^N with lengths l_1…l_N (in tokens), start from an
 of the denoiser makes lengths beyond the training lengths harmless), and each segment's tokens
 cross-attend to their *own* text: the N texts are laid side by side along the text axis and a cross mask
 (:func:`~motionlab.diffusion.segment_cross_mask`) pairs each motion token with its segment's text tokens.
-``joint_text="all"`` lets every token see all N texts instead (one reading of the appendix's "compound
-condition"). Classifier-free guidance is applied jointly: the unconditional branch replaces every
-segment's text by ∅ at once.
+``joint_text="all"`` lets every token see all N texts instead: the appendix's "compound condition" (A.1:
+"we concatenate action tokens from successive actions for conditioning"), read literally, one condition made
+of every action's words and shared by the whole sequence. Classifier-free guidance is applied jointly: the
+unconditional branch replaces every segment's text by ∅ at once.
 
 **Independent phase.** The concatenated sequence is cut back into N segments and they are denoised *as a
 batch* (one row per segment, padded to the longest), not with a block-diagonal self-attention mask on the
