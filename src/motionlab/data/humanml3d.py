@@ -165,7 +165,10 @@ class MotionDataset:
         for name in ("new_joint_vecs", "texts"):
             if not (self.root / name).is_dir():
                 raise FileNotFoundError(f"dataset folder {self.root} has no {name}/ subfolder")
-        self.normalizer = Normalizer.load(self.root)
+        try:
+            self.normalizer = Normalizer.load(self.root)
+        except ValueError as err:  # unreadable, NaN or zero statistics
+            raise ValueError(f"{self.root}: Mean.npy/Std.npy: {err}") from None
         inferred = "kit" if self.normalizer.dim == 251 else "humanml3d"
         if kind is not None and kind not in KINDS:
             raise ValueError(f"unknown dataset kind {kind!r}; expected one of {', '.join(KINDS)}")
@@ -210,7 +213,10 @@ class MotionDataset:
             text_path = self.root / "texts" / f"{clip_id}.txt"
             if not feat_path.is_file() or not text_path.is_file():
                 continue  # the public loaders skip ids without data the same way
-            motion = np.load(feat_path).astype(np.float32)
+            try:
+                motion = np.load(feat_path, allow_pickle=False).astype(np.float32)
+            except (OSError, ValueError) as err:
+                raise ValueError(f"{feat_path} cannot be read ({err})") from None
             if motion.ndim != 2 or motion.shape[1] != kind.feature_dim:
                 raise ValueError(f"{feat_path} has shape {motion.shape}, expected (T, {kind.feature_dim})")
             if not np.isfinite(motion).all():
