@@ -454,7 +454,7 @@ def _interrupted(started: float) -> str:
     except OSError:
         works = []
     if not works:
-        return "interrupted; nothing was written (the same command starts again)"
+        return "interrupted; the same command starts again (any training resumes from its last checkpoint)"
     work = max(works, key=lambda w: w.stat().st_mtime)
     name, profile = work.parent.parent.name, work.parent.name
     ckpt = latest_checkpoint(work)
