@@ -6,8 +6,12 @@ Only subcommands whose component exists are listed; more arrive with their compo
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import os
 import sys
+import time
+import warnings
 from pathlib import Path
 
 
@@ -29,12 +33,18 @@ def _data_make_embedded(args: argparse.Namespace) -> int:
     from .profiles import get_profile
 
     if args.out is None:
+        if args.clips is not None:  # the cached dataset's size is the profile's: never ignore --clips silently
+            size = EMBEDDED_SIZES[get_profile(args.profile)]
+            raise ValueError(f"--clips needs --out: the cached dataset of a profile has its own size ({size} clips "
+                             f"for {get_profile(args.profile)}); write a custom size to a folder of your own")
+        _check_cache_writable()
         path = ensure_embedded(profile=args.profile, seed=args.seed)
     else:
         out = Path(args.out)
         if out.exists():
             print(f"error: {out} already exists; choose a new folder", file=sys.stderr)
             return 2
+        _check_writable_folder(out.parent, "--out")
         n = args.clips or EMBEDDED_SIZES[get_profile(args.profile)]
         path = write_embedded_dataset(out, n_clips=n, seed=args.seed)
     print(path)
@@ -71,10 +81,13 @@ def _train(args: argparse.Namespace) -> int:
         raise ValueError("--jobs is for 'train book' (several models at once); one model trains in one process")
     if flow_options and args.model != "discord":  # refused before any data is generated or loaded
         raise ValueError(f"{', '.join(flow_options)} configure the DisCoRD decoder; they need the model 'discord'")
+    if args.tokenizer is not None and args.model != "discord":
+        raise ValueError("--tokenizer chooses whose tokens the DisCoRD decoder reads; it needs the model 'discord'")
+    _check_cache_writable()  # a read-only cache would fail only after the training
     ctx = init_distributed()  # a no-op unless launched by torchrun
     profile = get_profile(args.profile)
     dataset = load_dataset(args.data, profile=profile)
-    model = _trained_model(args.model, dataset, profile, args.device, flow_options)
+    model = _trained_model(args.model, dataset, profile, args.device, flow_options, args.tokenizer or "rvq")
     n_params = sum(p.numel() for p in model.parameters())
     if ctx.is_main:
         print(f"{args.model} ({profile}, data {dataset.key}): {n_params / 1e6:.2f} M parameters, trained and cached")
@@ -86,13 +99,15 @@ def _train_book(args: argparse.Namespace, flow_options: dict) -> int:
     from .profiles import get_profile
     from .train.plan import results_table, run_plan
 
-    given = [f"--{k.replace('_', '-')}" for k in flow_options] + [o for o, v in (("--data", args.data),
-                                                                              ("--device", args.device)) if v]
+    given = [f"--{k.replace('_', '-')}" for k in flow_options] + [
+        option for option, value in (("--data", args.data), ("--device", args.device), ("--tokenizer", args.tokenizer))
+        if value]  # fmt: skip
     if given:  # the book's models are fixed by its chapters
         raise ValueError(f"{', '.join(given)} cannot be used with 'train book': it trains the book's own models")
     jobs = args.jobs if args.jobs is not None else 2
     if jobs < 1:
         raise ValueError(f"--jobs must be >= 1, got {jobs}")
+    _check_cache_writable()
     profile = get_profile(args.profile)
     plan = book_jobs(profile)
     try:
@@ -159,10 +174,13 @@ def _book_execute(args: argparse.Namespace) -> int:
     return 0
 
 
-def _trained_model(name: str, dataset, profile: str, device: str | None, flow_options: dict | None = None):
+def _trained_model(name: str, dataset, profile: str, device: str | None, flow_options: dict | None = None,
+                   flow_tokenizer: str = "rvq"):  # fmt: skip
     """The cached model ``name`` of the book for this dataset and profile (trained on first use).
 
-    ``flow_options`` (DisCoRD only) override the profile's decoder config, e.g. ``{"prediction": "x"}``."""
+    ``flow_options`` (DisCoRD only) override the profile's decoder config, e.g. ``{"prediction": "x"}``;
+    ``flow_tokenizer`` is whose tokens it decodes: "rvq" (DisCoRD Table 1) or "vq" (the diffusion model's,
+    the decoder ``generate``/``evaluate t2m|multi --decoder discord`` use)."""
     from .tokenizers import tokenizer_for_dataset
 
     if name in ("vq", "rvq"):
@@ -174,7 +192,7 @@ def _trained_model(name: str, dataset, profile: str, device: str | None, flow_op
     if name == "discord":
         from .flow import discord_config, train_or_load_discord
 
-        tokenizer = tokenizer_for_dataset("rvq", dataset, profile, device=device)
+        tokenizer = tokenizer_for_dataset(flow_tokenizer, dataset, profile, device=device)
         config = discord_config(profile, tokenizer=tokenizer, **(flow_options or {}))
         return train_or_load_discord(dataset, tokenizer, profile, config=config, device=device)
     from .diffusion.pipeline import text_to_motion_for_dataset
@@ -194,7 +212,11 @@ def _generate(args: argparse.Namespace) -> int:
     lengths = args.length * len(texts) if len(args.length) == 1 else args.length
     if len(lengths) != len(texts):
         raise ValueError(f"give one --length for all texts or one per text; got {len(args.length)} for {len(texts)}")
+    if args.T_s is not None and len(texts) == 1:
+        raise ValueError("--T-s is the Two-Phase Sampling switch step; it needs two or more texts")
     profile = get_profile(args.profile)
+    _check_generation_lengths(lengths, profile)
+    _check_output(args.out, args.force, "--out")  # before any training or sampling
     dataset = load_dataset(args.data, profile=profile)
     pipe = text_to_motion_for_dataset(dataset, profile, device=args.device)
     decoder = None
@@ -213,12 +235,63 @@ def _generate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _check_generation_lengths(lengths: list[int], profile: str) -> None:
+    """Each length within what the diffusion model was trained on (longer ones also need memory quadratic
+    in length for attention); several texts make a longer motion."""
+    from .diffusion.pipeline import FRAMES_PER_TOKEN, check_lengths
+    from .diffusion.training import diffusion_training_config
+
+    check_lengths(lengths, len(lengths))  # positive multiples of 4
+    longest = diffusion_training_config(profile, num_codes=2).max_tokens * FRAMES_PER_TOKEN
+    for n in lengths:
+        if n > longest:
+            raise ValueError(f"--length {n} exceeds the longest motion the model was trained on, {longest} frames "
+                             f"({longest / 20:.1f} s at 20 fps); give several texts for a longer motion")  # fmt: skip
+
+
+def _check_output(path: Path, force: bool, option: str) -> None:
+    """Refuse an output path before any work: a folder, an existing file without ``--force``, an unknown
+    extension, or a folder that does not exist or cannot be written."""
+    from .io.files import MOTION_SUFFIXES
+
+    if path.is_dir():
+        raise ValueError(f"{option} {path} is a folder; give a file name ending in {', '.join(MOTION_SUFFIXES)}")
+    if path.suffix.lower() not in MOTION_SUFFIXES:
+        raise ValueError(f"{option} {str(path)!r} has an unknown extension {path.suffix.lower()!r}; expected one of "
+                         f"{', '.join(MOTION_SUFFIXES)}")  # fmt: skip
+    if path.exists() and not force:
+        raise ValueError(f"{path} exists; pass --force to replace it")
+    _check_writable_folder(path.parent, option)
+
+
+def _check_writable_folder(folder: Path, option: str) -> None:
+    folder = folder if str(folder) else Path(".")
+    if not folder.is_dir():
+        raise ValueError(f"the folder {str(folder)!r} of {option} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ValueError(f"cannot write to the folder {str(folder)!r} of {option} (permission denied)")
+
+
+def _check_cache_writable() -> None:
+    """The model/data cache must take new files (training and dataset generation write there)."""
+    from .paths import cache_dir
+
+    try:
+        root = cache_dir()
+    except OSError as err:
+        raise ValueError(f"cannot create the cache folder ($MOTIONLAB_HOME): {err}") from None
+    if not os.access(root, os.W_OK | os.X_OK):
+        raise ValueError(f"cannot write to the cache {root} ($MOTIONLAB_HOME); point MOTIONLAB_HOME at a "
+                         "writable folder")  # fmt: skip
+
+
 def _convert(args: argparse.Namespace) -> int:
     from .io import convert_motion
 
-    if args.dst.exists() and not args.force:
+    if not args.dst.is_dir() and args.dst.exists() and not args.force:
         print(f"error: {args.dst} exists; pass --force to replace it", file=sys.stderr)
         return 2
+    _check_output(args.dst, args.force, "the output")
     path = convert_motion(args.src, args.dst, mapping=args.mapping, scale=args.scale, up=args.up,
                           start=args.start, end=args.end)  # fmt: skip
     print(path)
@@ -234,13 +307,48 @@ def _evaluate(args: argparse.Namespace) -> int:
     config = _evaluation_config(args, default_repeats(profile) if args.repeats is None else args.repeats)
     if args.json is not None:
         check_json_path(args.json, force=args.force)  # refuse before hours of work, not after
+        _check_writable_folder(args.json.parent, "--json")
+    _check_evaluation_size(config)
     dataset = load_dataset(args.data, profile=profile)
-    table = EVALUATORS[args.task](dataset, config, profile, device=args.device, progress=sys.stderr.isatty())
+    with _phase_lines(not sys.stderr.isatty()):  # bars on a terminal, one line per phase in a log
+        table = EVALUATORS[args.task](dataset, config, profile, device=args.device, progress=sys.stderr.isatty())
     print(table.header())
     print(table.to_markdown())
     if args.json is not None:
         print(f"wrote {write_json(table, args.json, force=args.force)}", file=sys.stderr)
     return 0
+
+
+@contextlib.contextmanager
+def _phase_lines(enabled: bool):
+    """Print evaluation's phase lines (``motionlab.evaluate`` log records) to stderr while active."""
+    import logging
+
+    from .evaluation import log
+
+    if not enabled:
+        yield
+        return
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("evaluate %(asctime)s %(message)s", "%H:%M:%S"))
+    level, log.level = log.level, logging.INFO
+    log.addHandler(handler)
+    try:
+        yield
+    finally:
+        log.removeHandler(handler)
+        log.setLevel(level)
+
+
+def _check_evaluation_size(config) -> None:
+    """Refuse sizes whose generated motions would not fit in memory (estimated before any work)."""
+    from .evaluation import available_memory, estimated_memory
+
+    need, what = estimated_memory(config)
+    have = available_memory()
+    if have is not None and need > 0.8 * have:
+        raise ValueError(f"{what} would need about {need / 2**30:.1f} GiB of memory, more than the "
+                         f"{have / 2**30:.1f} GiB available here; ask for fewer")  # fmt: skip
 
 
 def _evaluation_config(args: argparse.Namespace, repeats: int):
@@ -371,7 +479,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="dataset size (default: $MOTIONLAB_PROFILE or laptop)")  # fmt: skip
     make.add_argument("--seed", type=int, default=0)
     make.add_argument("--out", type=Path, default=None, help="write here instead of the cache (must not exist)")
-    make.add_argument("--clips", type=int, default=None, help="number of clips (with --out)")
+    make.add_argument("--clips", type=int, default=None, help="number of clips (needs --out)")
     make.set_defaults(func=_data_make_embedded)
 
     from_bvh = data_sub.add_parser(
@@ -392,11 +500,21 @@ def build_parser() -> argparse.ArgumentParser:
     from_bvh.add_argument("--force", action="store_true", help="replace an existing non-empty --out folder")
     from_bvh.set_defaults(func=_data_from_bvh)
 
-    train = sub.add_parser("train", help="train a model of the book (or load it if already trained); resumable")
+    train = sub.add_parser(
+        "train", help="train a model of the book (or load it if already trained); resumable",
+        description="Train a model of the book once and cache it (or load it if already trained). Ctrl-C stops; "
+                    "the same command resumes from the last checkpoint. 'discord' is the DisCoRD decoder of RVQ "
+                    "tokens (DisCoRD Table 1, `evaluate reconstruction`); `generate`/`evaluate t2m|multi "
+                    "--decoder discord` use a second DisCoRD decoder, of the diffusion model's VQ tokens: "
+                    "`train discord --tokenizer vq` trains that one.",
+    )  # fmt: skip
     train.add_argument("model", choices=["vq", "rvq", "evaluator", "discord", "diffusion", "book"],
                        help="which model; 'book': every model the chapters load, several at a time")
     train.add_argument("--jobs", type=int, default=None,
                        help="with 'book': models trained at once, one process and one torch thread each (default 2)")
+    train.add_argument("--tokenizer", choices=["rvq", "vq"], default=None,
+                       help="discord only: decode RVQ tokens (default; DisCoRD Table 1) or the VQ tokens that "
+                            "generate --decoder discord needs")  # fmt: skip
     train.add_argument("--profile", choices=["smoke", "laptop", "full"], default=None,
                        help="model size (default: $MOTIONLAB_PROFILE or laptop)")  # fmt: skip
     train.add_argument("--data", default=None, help="a HumanML3D/KIT-ML folder (default: the embedded dataset)")
@@ -431,9 +549,15 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("texts", nargs="+", help='one or more action descriptions, e.g. "a person waves"')
     gen.add_argument("--length", type=int, nargs="+", default=[120],
                      help="frames at 20 fps, a multiple of 4: one for all texts or one per text")  # fmt: skip
-    gen.add_argument("--decoder", choices=["vq", "discord"], default="vq", help="token decoder (default: vq)")
-    gen.add_argument("--out", type=Path, required=True, help="output .npy (features), .bvh or .html")
-    gen.add_argument("--T-s", dest="T_s", type=int, default=None, help="TPS switch step (default: 0.9 T)")
+    gen.add_argument("--decoder", choices=["vq", "discord"], default="vq",
+                     help="token decoder (default: vq); discord: the DisCoRD decoder of the VQ tokens (not the RVQ "
+                          "one of `train discord`; `train discord --tokenizer vq` trains it ahead)")  # fmt: skip
+    gen.add_argument("--out", type=Path, required=True,
+                     help="output .npy (features), .bvh (fixed bone lengths) or .html; never replaced without "
+                          "--force")  # fmt: skip
+    gen.add_argument("--force", action="store_true", help="replace an existing --out file")
+    gen.add_argument("--T-s", dest="T_s", type=int, default=None,
+                     help="TPS switch step, with two or more texts (default: 0.9 T)")  # fmt: skip
     gen.add_argument("--seed", type=int, default=0)
     gen.add_argument("--profile", choices=["smoke", "laptop", "full"], default=None)
     gen.add_argument("--data", default=None, help="a HumanML3D/KIT-ML folder (default: the embedded dataset)")
@@ -457,14 +581,46 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"warning: {message}", file=sys.stderr)
+
+
+def _interrupted(started: float) -> str:
+    """One line for Ctrl-C: the model being trained (a checkpoint folder written since ``started``), its
+    last checkpoint, and that the same command resumes; or just that nothing was written."""
+    from .paths import cache_dir
+    from .train.checkpoint import latest_checkpoint
+
+    try:
+        works = [w for w in (cache_dir() / "models").glob("*/*/*.work") if w.stat().st_mtime >= started - 1]
+    except OSError:
+        works = []
+    if not works:
+        return "interrupted; the same command starts again (any training resumes from its last checkpoint)"
+    work = max(works, key=lambda w: w.stat().st_mtime)
+    name, profile = work.parent.parent.name, work.parent.name
+    ckpt = latest_checkpoint(work)
+    where = f"at its checkpoint of step {int(ckpt.name[5:]):,}" if ckpt else "from the start (no checkpoint yet)"
+    return f"interrupted while training {name!r} ({profile}); the same command resumes it {where}"
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    try:
-        _set_threads(args.threads)
-        return args.func(args)
-    except (ValueError, FileNotFoundError) as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
+    started = time.time()
+    with warnings.catch_warnings():
+        warnings.showwarning = _show_warning  # one "warning:" line each, restored on exit
+        try:
+            _set_threads(args.threads)
+            return args.func(args)
+        except (ValueError, FileNotFoundError) as err:
+            print(f"error: {err}", file=sys.stderr)
+            return 2
+        except OSError as err:  # a full disk, a read-only folder: one line, not a traceback
+            print(f"error: {err.strerror or err}{f': {err.filename}' if err.filename else ''}", file=sys.stderr)
+            return 1
+        except KeyboardInterrupt:
+            print(f"\n{_interrupted(started)}", file=sys.stderr)
+            return 130
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -25,8 +25,11 @@ same table. :func:`write_json` stores a table atomically (a temporary file, then
 from __future__ import annotations
 
 import json
+import logging
 import math
+import os
 import sys
+import time
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -300,6 +303,39 @@ class MultiMotionConfig:
             _check_int("T_s", self.T_s, 0)
 
 
+# ------------------------------------------------------------------------------------------ size bounds
+
+_MOTION_BYTES = 196 * 263 * 4  # one generated motion at the longest evaluated length, float32 features
+
+
+def estimated_memory(config: Any) -> tuple[int, str]:
+    """Bytes the generated motions of one evaluation step hold at once (an upper estimate), and which option
+    sets it: multi holds every instance's actions for every method; MultiModality generates ``mm_texts ×
+    mm_repeats`` motions in one go. Reconstruction is bounded by the dataset itself."""
+    if isinstance(config, MultiMotionConfig) and config.instances is not None:
+        n = config.instances * config.actions * (len(config.methods) + 1)
+        return n * _MOTION_BYTES * 2, f"--instances {config.instances}"  # features and joints
+    if isinstance(config, TextToMotionConfig) and config.multimodality:
+        n = config.mm_texts * config.mm_repeats
+        return n * _MOTION_BYTES * 2, f"--mm-texts {config.mm_texts} × --mm-repeats {config.mm_repeats}"
+    return 0, ""
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available to a new allocation (Linux ``MemAvailable``), None where unknown."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
 def _check_sampling(cfg: Any) -> None:
     if cfg.num_steps is not None:
         _check_int("num_steps", cfg.num_steps, 1)
@@ -340,8 +376,20 @@ def _once(scores: Mapping[str, float]) -> dict[str, Estimate]:
     return {k: Estimate(float(v), 0.0, 1) for k, v in scores.items()}
 
 
-def _bar(total: int, desc: str, progress: bool):
-    return tqdm(total=total, desc=desc, disable=not progress, file=sys.stderr, leave=False)
+def _bar(total: int, desc: str, progress: bool, unit: str = "it"):
+    return tqdm(total=total, desc=desc, disable=not progress, file=sys.stderr, leave=False, unit=unit)
+
+
+# One INFO line per phase (the CLI shows them when stderr is a log file rather than a terminal).
+log = logging.getLogger("motionlab.evaluate")
+
+
+def _phase(text: str) -> None:
+    log.info(text)
+
+
+def _duration(seconds: float) -> str:
+    return f"{seconds:.0f} s" if seconds < 90 else f"{seconds / 60:.0f} min"
 
 
 @dataclass
@@ -428,6 +476,8 @@ def evaluate_reconstruction(dataset, config: ReconstructionConfig | None = None,
     profile = get_profile(profile)
     clips = _split_clips(dataset, cfg.split, cfg.limit, 2, "FID")
     kind = cfg.tokenizer_kind
+    _phase(f"reconstruction: {len(clips)} {cfg.split} clips; loading (or training) the {kind} tokenizer and "
+           "the evaluator")  # fmt: skip
     tokenizer = tokenizer_for_dataset(kind, dataset, profile, device=device, progress=progress)
     evaluator = load_or_train_evaluator(dataset, profile, device=device, progress=progress)
     q, normalizer = int(tokenizer.downsample), dataset.normalizer
@@ -441,6 +491,7 @@ def evaluate_reconstruction(dataset, config: ReconstructionConfig | None = None,
 
     name = "VQ-VAE" if kind == "vq" else "RVQ-VAE"
     feed_forward = f"{name} decoder"
+    _phase(f"scoring the {feed_forward}")
     rows = {feed_forward: _once(score(decode_clips(normalized, tokenizer)))}
     notes = ["The feed-forward decoder is deterministic: one run, no interval."]
     if cfg.decoder == "discord":
@@ -449,6 +500,7 @@ def evaluate_reconstruction(dataset, config: ReconstructionConfig | None = None,
         chosen = {name: getattr(cfg, name) for name in FLOW_OPTIONS if getattr(cfg, name) is not None}
         training = {k: v for k, v in chosen.items() if k in FLOW_TRAINING_OPTIONS}
         flow_config = discord_config(profile, tokenizer=tokenizer, **training)
+        _phase("loading (or training) the DisCoRD decoder")
         flow = train_or_load_discord(dataset, tokenizer, profile, config=flow_config, device=device,
                                      progress=progress)  # fmt: skip
         sampling = {k: v for k, v in chosen.items() if k in FLOW_SAMPLING_OPTIONS}
@@ -456,6 +508,7 @@ def evaluate_reconstruction(dataset, config: ReconstructionConfig | None = None,
         runs = []
         with _bar(cfg.repeats, "DisCoRD repeats", progress) as bar:
             for r in range(cfg.repeats):
+                _phase(f"DisCoRD repeat {r + 1} of {cfg.repeats}")
                 recon = decode_clips(normalized, tokenizer, flow, steps=cfg.steps, solver=cfg.solver,
                                      seed=repeat_seed(cfg.seed, r))  # fmt: skip
                 runs.append(score(recon))
@@ -479,25 +532,39 @@ def evaluate_t2m(dataset, config: TextToMotionConfig | None = None, profile: str
     cfg = _config(config, TextToMotionConfig)
     profile = get_profile(profile)
     clips = _split_clips(dataset, cfg.split, cfg.limit, R_PRECISION_BATCH, "R-precision (batches of 32)")
+    _phase(f"t2m: {len(clips)} {cfg.split} clips; loading (or training) the diffusion model and the evaluator")
     pipe, evaluator, decoder, decoder_name = _pipeline_and_decoder(dataset, cfg, profile, device, progress)
     sampling = _sampling(cfg)
     mm_clips = clips[: cfg.mm_texts]
-    bar = _bar(cfg.repeats * (2 if cfg.multimodality else 1), "t2m generations", progress)
+    mm_motions = len(mm_clips) * cfg.mm_repeats  # per repeat, vs len(clips) for the protocol itself
+    # The bar counts generated motions, so its ETA stays honest when the (much longer) MultiModality starts.
+    bar = _bar(cfg.repeats * (len(clips) + (mm_motions if cfg.multimodality else 0)), "t2m generations", progress,
+               unit="motion")  # fmt: skip
+    timing = {"motions": 0, "seconds": 0.0}
 
     def generate(texts, lengths, *, seed, **kw):
+        _phase(f"generating {len(texts)} motions (repeat {timing['motions'] // len(clips) + 1} of {cfg.repeats})")
+        start = time.perf_counter()
         motions = pipe.generate(texts, lengths, seed=seed, decoder=decoder, **kw)
-        bar.update()
+        timing["seconds"] += time.perf_counter() - start
+        timing["motions"] += len(texts)
+        bar.update(len(texts))
         return motions
 
     with bar:
         truth = evaluate_ground_truth(evaluator, clips, repeats=cfg.repeats, seed=cfg.seed)
         runs = evaluate_text_to_motion(generate, evaluator, clips, repeats=cfg.repeats, seed=cfg.seed, **sampling)
         if cfg.multimodality:
+            per_motion = timing["seconds"] / max(timing["motions"], 1)
+            _phase(f"MultiModality: {cfg.repeats} × {mm_motions} motions ({len(mm_clips)} texts × {cfg.mm_repeats}), "
+                   f"about {_duration(cfg.repeats * mm_motions * per_motion)} at the "
+                   f"{per_motion:.2f} s per motion measured so far")  # fmt: skip
             for r, run in enumerate(runs):
+                _phase(f"MultiModality repeat {r + 1} of {cfg.repeats}")
                 run["multimodality"] = multimodality_score(pipe, evaluator, mm_clips, n_repeats=cfg.mm_repeats,
                                                            seed=repeat_seed(cfg.seed, r, 1), decoder=decoder,
                                                            **sampling)  # fmt: skip
-                bar.update()
+                bar.update(mm_motions)
     rows = {"Ground Truth": summarize_runs(truth), f"Discrete diffusion + {decoder_name}": summarize_runs(runs)}
     counts = {"clips": len(clips), **({"multimodality texts": len(mm_clips)} if cfg.multimodality else {})}
     return _table("t2m", dataset, profile, cfg, counts, T2M_METRICS if cfg.multimodality else T2M_METRICS[:-1], rows)
@@ -519,8 +586,11 @@ class _Counting:
 
     generator: Any
     bar: Any
+    done: int = 0
 
     def generate(self, *args, **kwargs):
+        self.done += 1
+        _phase(f"multi-motion generation {self.done} of {self.bar.total}")
         out = self.generator.generate(*args, **kwargs)
         self.bar.update()
         return out
@@ -554,6 +624,8 @@ def evaluate_multi(dataset, config: MultiMotionConfig | None = None, profile: st
     if len(instances) * (cfg.actions - 1) < 2:
         raise ValueError(f"{len(instances)} instance(s) of {cfg.actions} actions give fewer than 2 transitions; "
                          "ask for more instances")  # fmt: skip
+    _phase(f"multi: {len(instances)} instances of {cfg.actions} actions; loading (or training) the diffusion model "
+           "and the evaluator")  # fmt: skip
     pipe, evaluator, decoder, decoder_name = _pipeline_and_decoder(dataset, cfg, profile, device, progress)
     T = int(pipe.transitions.T)
     T_s = round(0.9 * T) if cfg.T_s is None else cfg.T_s

@@ -139,7 +139,13 @@ def test_t2m_prints_the_ground_truth_row_and_every_metric(data, capsys):
     options = ["--limit", "32", "--repeats", "2", "--num-steps", "5", "--multimodality", "--mm-texts", "3",
                "--mm-repeats", "10"]  # fmt: skip
     assert evaluate("t2m", data, *options) == 0
-    lines = capsys.readouterr().out.splitlines()
+    captured = capsys.readouterr()
+    lines = captured.out.splitlines()
+    # stderr is not a terminal here: one line per phase reaches the log, with an honest MultiModality estimate
+    phases = [line for line in captured.err.splitlines() if line.startswith("evaluate ")]
+    assert any("generating 32 motions (repeat 2 of 2)" in line for line in phases)
+    assert any("MultiModality: 2 × 30 motions (3 texts × 10), about" in line for line in phases)
+    assert any("MultiModality repeat 2 of 2" in line for line in phases)
     assert lines[0].startswith("evaluate t2m: profile smoke") and "32 clips" in lines[0] and "2 repeats" in lines[0]
     header = lines[1]
     for column in ("R-Top1", "R-Top2", "R-Top3", "FID", "MM-Dist", "Diversity", "MModality"):
@@ -157,7 +163,9 @@ def test_multi_tps_and_independent(data, tmp_path, capsys):
     out = tmp_path / "multi.json"
     options = ["--methods", "tps,independent", "--instances", "3", "--repeats", "2", "--num-steps", "5"]
     assert evaluate("multi", data, *options, "--json", str(out)) == 0
-    stdout = capsys.readouterr().out
+    captured = capsys.readouterr()
+    stdout = captured.out
+    assert "multi-motion generation 4 of 4" in captured.err  # one line per generation phase in a log
     assert "3 instances, 4 actions each" in stdout.splitlines()[0]
     result = read(out)
     assert list(result["rows"]) == ["Ground Truth (Single)", "Ground Truth (Concat)", "TPS (T_s = 90)",

@@ -255,6 +255,30 @@ def test_ensure_embedded_generates_once_into_the_cache(isolated_cache, monkeypat
         ensure_embedded("huge")
 
 
+def test_a_damaged_cached_dataset_is_moved_aside_and_generated_again(isolated_cache, monkeypatch, capsys):
+    from motionlab.data import load_dataset
+
+    monkeypatch.setitem(EMBEDDED_SIZES, "smoke", N_SMALL)
+    first = ensure_embedded("smoke", seed=1, progress=False)
+    clip = sorted((first / "new_joint_vecs").iterdir())[5]
+    whole = clip.read_bytes()
+    clip.write_bytes(whole[: len(whole) // 2])  # a truncated file (a full disk, a killed copy)
+    again = ensure_embedded("smoke", seed=1, progress=False)
+    assert again == first and clip.read_bytes() == whole  # regenerated, byte for byte
+    assert clip.name in capsys.readouterr().err
+    assert [p for p in first.parent.iterdir() if ".damaged-" in p.name]
+    # a folder given by path (not the cache) is never touched, but the error names the file
+    mean = (again / "Mean.npy").read_bytes()
+    (again / "Mean.npy").write_bytes(b"junk")
+    assert writer_module.embedded_damage(again).startswith(str(again / "Mean.npy"))
+    with pytest.raises(ValueError, match="Mean.npy"):
+        load_dataset(again)
+    (again / "Mean.npy").write_bytes(mean)
+    clip.write_bytes(whole[:300])
+    with pytest.raises(ValueError, match=clip.name):
+        load_dataset(again).split("all", filter_lengths=False)
+
+
 def test_profile_sizes_are_ordered():
     assert EMBEDDED_SIZES["smoke"] >= 3 * len(FAMILIES)
     assert EMBEDDED_SIZES["smoke"] < EMBEDDED_SIZES["laptop"] < EMBEDDED_SIZES["full"]

@@ -97,6 +97,27 @@ def test_bad_inputs(model, smooth_motion):
             model.decode(torch.cat([good, good], dim=-1))
 
 
+def test_boundaries_convert_float64_and_reject_nan_and_empty_ids(model, smooth_motion):
+    import numpy as np
+
+    x = smooth_motion(1, 16)
+    ids = model.encode(x)
+    assert torch.equal(model.encode(x.double()), ids)  # float64 is converted at the boundary
+    assert torch.equal(model.encode(x.double().numpy()), ids)
+    assert torch.equal(model.encode(np.asarray(x, dtype=np.float64)), ids)
+    for bad in (float("nan"), float("inf")):
+        y = x.clone()
+        y[0, 3, 7] = bad
+        with pytest.raises(ValueError, match="motion contains NaN or inf"):
+            model.encode(y)
+        with pytest.raises(ValueError, match="NaN or inf"):
+            model(y)
+    with pytest.raises(ValueError, match="ids must hold at least one token"):
+        model.decode(ids[:, :0])
+    with pytest.raises(ValueError, match="ids must hold at least one token"):
+        model.embed(ids[:0])
+
+
 def test_checkpoint_config_mismatch(tmp_path):
     small = build_tokenizer(vq_config("smoke"))
     path = save_checkpoint(tmp_path, 0, small)

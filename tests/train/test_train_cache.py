@@ -7,6 +7,7 @@ import torch
 from torch import nn
 
 from motionlab.train import (
+    DamagedArtefactError,
     TrainConfig,
     Trainer,
     artefact_dir,
@@ -116,3 +117,76 @@ def test_bad_names_and_configs():
         config_hash({"hidden": 4})
     with pytest.raises(ValueError, match="profile"):
         artefact_dir("toy", ToyConfig(), "huge")
+
+
+# ---------------------------------------------------------------------------------------- damaged artefacts
+
+
+def _damage(path, how):
+    data = bytearray(path.read_bytes())
+    if how == "truncated":
+        path.write_bytes(bytes(data[: len(data) // 2]))
+    elif how == "garbage":
+        path.write_bytes(b"not a safetensors file at all" * 10)
+    else:  # one bit of the last weight's exponent: the header stays valid, a value turns huge, inf or NaN
+        data[-1] ^= 0x40
+        path.write_bytes(bytes(data))
+
+
+def test_the_checksum_of_the_weights_is_recorded():
+    import hashlib
+    import json
+
+    cfg = ToyConfig()
+    train_or_load("toy", cfg, build, Counter(), "smoke")
+    folder = artefact_dir("toy", cfg, "smoke")
+    recorded = json.loads((folder / "config.json").read_text())["sha256"]
+    assert recorded == hashlib.sha256((folder / "model.safetensors").read_bytes()).hexdigest()
+
+
+@pytest.mark.parametrize("how", ["truncated", "garbage", "bitflip"])
+def test_damaged_weights_are_named_moved_aside_and_retrained(how, capsys):
+    cfg, train = ToyConfig(), Counter()
+    first = train_or_load("toy", cfg, build, train, "smoke")
+    folder = artefact_dir("toy", cfg, "smoke")
+    _damage(folder / "model.safetensors", how)
+    with pytest.raises(DamagedArtefactError, match="model.safetensors") as err:  # loading only: a clear stop
+        load_trained("toy", cfg, build, "smoke")
+    assert "\n" not in str(err.value) and "damaged" in str(err.value)
+    again = train_or_load("toy", cfg, build, train, "smoke")
+    assert train.calls == 2
+    assert "damaged" in capsys.readouterr().err
+    moved = [p.name for p in folder.parent.iterdir() if ".damaged-" in p.name]
+    assert len(moved) == 1 and moved[0].startswith(folder.name)
+    for a, b in zip(first.state_dict().values(), again.state_dict().values()):
+        assert torch.equal(a, b)  # the same deterministic training again
+    load_trained("toy", cfg, build, "smoke")  # and the new artefact verifies
+
+
+def test_unreadable_config_json_counts_as_damage():
+    cfg = ToyConfig()
+    train_or_load("toy", cfg, build, Counter(), "smoke")
+    (artefact_dir("toy", cfg, "smoke") / "config.json").write_text("{trunc")
+    with pytest.raises(DamagedArtefactError, match="config.json"):
+        load_trained("toy", cfg, build, "smoke")
+
+
+def test_legacy_artefacts_without_a_checksum(home):
+    import json
+
+    from safetensors.torch import save_file
+
+    cfg = ToyConfig()
+    train_or_load("toy", cfg, build, Counter(), "smoke")
+    folder = artefact_dir("toy", cfg, "smoke")
+    info = json.loads((folder / "config.json").read_text())
+    del info["sha256"]
+    (folder / "config.json").write_text(json.dumps(info))
+    load_trained("toy", cfg, build, "smoke")  # finite weights load, and their checksum is recorded now
+    assert "sha256" in json.loads((folder / "config.json").read_text())
+    # a legacy artefact with NaN weights is refused rather than producing NaN motion
+    state = {k: torch.full_like(v, float("nan")) for k, v in build(cfg).state_dict().items()}
+    save_file(state, str(folder / "model.safetensors"))
+    (folder / "config.json").write_text(json.dumps(info))
+    with pytest.raises(DamagedArtefactError, match="NaN"):
+        load_trained("toy", cfg, build, "smoke")

@@ -108,6 +108,7 @@ def check_dataset(root: str | os.PathLike) -> list[str]:
     problems += [f"missing split file {s}.txt" for s in ("train", "val", "test") if not (root / f"{s}.txt").is_file()]
     if problems:
         return problems
+    problems += _check_statistics(root)
     dims = set()
     for split in ("train", "val", "test"):
         for clip_id in read_split_ids(root, split):
@@ -115,11 +116,17 @@ def check_dataset(root: str | os.PathLike) -> list[str]:
             if not feat.is_file():
                 problems.append(f"{split}: {clip_id} has no new_joint_vecs/{clip_id}.npy")
             else:
-                shape = np.load(feat, mmap_mode="r").shape
-                if len(shape) != 2:
-                    problems.append(f"{split}: new_joint_vecs/{clip_id}.npy has shape {shape}, expected (T, D)")
-                else:
-                    dims.add(shape[1])
+                try:
+                    values = np.load(feat, mmap_mode="r", allow_pickle=False)
+                except (OSError, ValueError) as err:
+                    problems.append(f"{split}: new_joint_vecs/{clip_id}.npy cannot be read ({err})")
+                    values = None
+                if values is not None and values.ndim != 2:
+                    problems.append(f"{split}: new_joint_vecs/{clip_id}.npy has shape {values.shape}, expected (T, D)")
+                elif values is not None:
+                    dims.add(values.shape[1])
+                    if not np.isfinite(values).all():  # loading and training refuse such clips
+                        problems.append(f"{split}: new_joint_vecs/{clip_id}.npy contains NaN or inf values")
             if not text.is_file():
                 problems.append(f"{split}: {clip_id} has no texts/{clip_id}.txt")
             else:
@@ -133,9 +140,35 @@ def check_dataset(root: str | os.PathLike) -> list[str]:
     for dim in dims:
         if dim not in (k.feature_dim for k in KINDS.values()):
             problems.append(f"feature dimension {dim} is neither HumanML3D (263) nor KIT-ML (251)")
-    stats_dim = np.load(root / "Mean.npy").shape
-    if dims and stats_dim != (next(iter(dims)),):
+    try:
+        stats_dim = np.load(root / "Mean.npy", allow_pickle=False).shape
+    except (OSError, ValueError):
+        stats_dim = None  # already reported by _check_statistics
+    if dims and stats_dim is not None and stats_dim != (next(iter(dims)),):
         problems.append(f"Mean.npy has shape {stats_dim}, features have {sorted(dims)} dims")
+    return problems
+
+
+def _check_statistics(root: Path) -> list[str]:
+    """Mean.npy and Std.npy: readable 1-D arrays of equal size, finite, and Std strictly positive (models divide
+    by it)."""
+    problems, arrays = [], {}
+    for name in ("Mean.npy", "Std.npy"):
+        try:
+            arrays[name] = np.load(root / name, allow_pickle=False)
+        except (OSError, ValueError) as err:
+            problems.append(f"{name} cannot be read ({err})")
+            continue
+        values = arrays[name]
+        if values.ndim != 1:
+            problems.append(f"{name} has shape {values.shape}, expected (D,)")
+        elif not np.isfinite(values).all():
+            problems.append(f"{name} contains {int((~np.isfinite(values)).sum())} NaN or inf values")
+    std = arrays.get("Std.npy")
+    if std is not None and std.ndim == 1 and np.isfinite(std).all() and (std <= 0).any():
+        problems.append(f"Std.npy has {int((std <= 0).sum())} zero or negative values (features are divided by it)")
+    if len(arrays) == 2 and arrays["Mean.npy"].shape != arrays["Std.npy"].shape:
+        problems.append(f"Mean.npy {arrays['Mean.npy'].shape} and Std.npy {arrays['Std.npy'].shape} differ in shape")
     return problems
 
 
@@ -165,7 +198,10 @@ class MotionDataset:
         for name in ("new_joint_vecs", "texts"):
             if not (self.root / name).is_dir():
                 raise FileNotFoundError(f"dataset folder {self.root} has no {name}/ subfolder")
-        self.normalizer = Normalizer.load(self.root)
+        try:
+            self.normalizer = Normalizer.load(self.root)
+        except ValueError as err:  # unreadable, NaN or zero statistics
+            raise ValueError(f"{self.root}: Mean.npy/Std.npy: {err}") from None
         inferred = "kit" if self.normalizer.dim == 251 else "humanml3d"
         if kind is not None and kind not in KINDS:
             raise ValueError(f"unknown dataset kind {kind!r}; expected one of {', '.join(KINDS)}")
@@ -210,7 +246,10 @@ class MotionDataset:
             text_path = self.root / "texts" / f"{clip_id}.txt"
             if not feat_path.is_file() or not text_path.is_file():
                 continue  # the public loaders skip ids without data the same way
-            motion = np.load(feat_path).astype(np.float32)
+            try:
+                motion = np.load(feat_path, allow_pickle=False).astype(np.float32)
+            except (OSError, ValueError) as err:
+                raise ValueError(f"{feat_path} cannot be read ({err})") from None
             if motion.ndim != 2 or motion.shape[1] != kind.feature_dim:
                 raise ValueError(f"{feat_path} has shape {motion.shape}, expected (T, {kind.feature_dim})")
             if not np.isfinite(motion).all():

@@ -26,6 +26,14 @@ Rotation channels are ``rotation_order`` (default ``"ZYX"``, written ``Zrotation
 intrinsic Euler angles in degrees; positions are in ``unit`` (default metres, Y-up, HumanML3D's axes).
 Because BVH offsets are fixed, a motion whose bone lengths differ from the target's comes back with the
 target lengths and its bone directions.
+
+**Which is the motion?** A motion decoded from features (every generated one) need not keep its bones
+rigid: a forearm may measure 0.12 m in one frame and 0.28 m in another. The features, and the joint positions
+recovered from them (``.npy``, ``.html``), are the motion as generated and as the metrics score it; the BVH
+is its rigid-skeleton version (the same bone directions on the target bone lengths). :func:`save_bvh` warns
+(:class:`~motionlab.io.common.MotionWarning`) when a bone's length varies by more than
+:data:`STRETCH_WARNING` metres, naming the bone, its range and how far the BVH's joints end up from the
+motion's.
 """
 
 from __future__ import annotations
@@ -40,10 +48,11 @@ from scipy.spatial.transform import Rotation
 
 from ..representation import T2M, Skeleton, inverse_kinematics, qinv, qmul, qrot, quat_to_matrix
 from .bvh import Bvh, BvhJoint, write_bvh
-from .common import as_joints
+from .common import as_joints, bone_stretch, warn
 
 UNITS = {"m": 1.0, "cm": 100.0, "mm": 1000.0}  # file units per metre
 END_SITE_FRACTION = 0.5  # an end joint's End Site sits this fraction of its bone beyond it
+STRETCH_WARNING = 0.02  # metres: a bone whose length varies more than this within a motion is reported
 
 
 @dataclass(frozen=True)
@@ -169,4 +178,23 @@ def save_bvh(motion, path: str | os.PathLike, fps: float = 20.0, unit: str = "m"
     path = Path(path)
     if path.suffix.lower() != ".bvh":
         raise ValueError(f"path must end in .bvh, got {str(path)!r}")
-    return write_bvh(motion_to_bvh(motion, fps, unit, rotation_order), path)
+    bvh = motion_to_bvh(motion, fps, unit, rotation_order)
+    joints, sk = as_joints(motion, name="motion")
+    stretch, bone, lo, hi = bone_stretch(joints, sk)
+    if stretch > STRETCH_WARNING:
+        gap = rigid_deviation(bvh, joints, unit)
+        warn(f"{path.name}: the motion's bones stretch ({bone} {lo:.2f}-{hi:.2f} m); the BVH keeps fixed bone "
+             f"lengths, so its joints are up to {100 * gap:.0f} cm from the motion's (.npy/.html hold the motion "
+             "as generated)")  # fmt: skip
+    return write_bvh(bvh, path)
+
+
+def rigid_deviation(bvh: Bvh, joints: np.ndarray, unit: str = "m") -> float:
+    """Largest distance (metres) between a joint of ``joints`` ``(T, 22, 3)`` and the same joint of ``bvh``'s
+    forward kinematics: what the fixed bone lengths of the BVH change."""
+    from .bvh import bvh_positions
+
+    names = list(bvh.names)
+    columns = [names.index(n) for n in T2M.joint_names]
+    rigid = bvh_positions(bvh)[:, columns] / UNITS[unit]  # (T, 22, 3) metres
+    return float(np.linalg.norm(rigid - joints, axis=-1).max())

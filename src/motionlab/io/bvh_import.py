@@ -24,6 +24,9 @@ Conventions:
 * **Cropping.** HumanML3D cuts each take to ``[start_frame, end_frame)`` at 20 fps (its ``index.csv``);
   ``start``/``end`` here do the same, so a converted take has the frame count of its HumanML3D clip:
   ``end - start`` poses and ``end - start - 1`` feature rows, as in ``new_joint_vecs``.
+* **Floor check.** With the head below or level with the ankles in most frames, the chosen ``up`` is
+  probably wrong (a Y-up file read with ``up="z"`` lies flat): a :class:`~motionlab.io.common.MotionWarning`
+  says so, and names the other axis when the body would stand on it.
 * **Degenerate joints.** Some rigs put several joints at one point (CMU: ``lowerback`` on ``Hips``; the
   collars on ``Chest2``). A t2m joint that stays within ``1e-4 m`` of its t2m parent is placed at
   ``parent + fill * (child - parent)``, on the segment to its next joint along the chain; otherwise the
@@ -42,8 +45,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..representation import T2M, Skeleton, joints_to_features
+from ..representation import T2M, Skeleton
 from .bvh import Bvh, bvh_positions, read_bvh
+from .common import checked_features, warn
 
 CMU_SCALE = 0.056444  # metres per unit of the CMU BVH release
 
@@ -157,6 +161,34 @@ def fill_degenerate_joints(
     return joints, moved
 
 
+UPRIGHT = 0.5  # the head counts as "above the feet" when its offset from them points this much upwards
+
+
+def uprightness(joints: np.ndarray, skeleton: Skeleton = T2M) -> float:
+    """Median over frames of the vertical (y) component of the unit vector from the ankles' midpoint to the
+    head: about 1 standing, 0 lying flat, -1 upside down."""
+    names = skeleton.joint_names
+    head = joints[:, names.index("head")]
+    feet = joints[:, [names.index("left_ankle"), names.index("right_ankle")]].mean(axis=1)
+    v = head - feet  # (T, 3)
+    norm = np.linalg.norm(v, axis=-1)
+    return float(np.median(v[:, 1] / np.maximum(norm, 1e-9)))
+
+
+def _check_floor(joints_file_axes: np.ndarray, up: str, source: str) -> None:
+    """Warn when the body does not stand on the floor the chosen ``up`` axis implies (``joints_file_axes``
+    in the file's own axes, metres)."""
+    score = uprightness(joints_file_axes @ _Y_UP[up].T)
+    if score >= UPRIGHT:
+        return
+    other = "y" if up == "z" else "z"
+    hint = ""
+    if uprightness(joints_file_axes @ _Y_UP[other].T) >= UPRIGHT:
+        hint = f"; with up={other!r} it stands upright (--up {other})"
+    warn(f"{source}: with up={up!r} the head is not above the feet in most frames (the body lies flat or "
+         f"upside down){hint}")  # fmt: skip
+
+
 def resolve_rig(mapping: str | Mapping[str, str] = "cmu", scale: float | None = None, up: str | None = None) -> BvhRig:
     """A :class:`BvhRig` from a preset name (``"cmu"``, ``"t2m"``) or a t2m -> BVH name dict.
 
@@ -199,7 +231,9 @@ def bvh_to_joints(
     ``fps`` (``end=None``: to the last frame). The skeleton keeps the BVH's own proportions;
     :func:`bvh_to_features` retargets.
     """
+    source = "the BVH"
     if not isinstance(bvh, Bvh):
+        source = os.path.basename(os.fspath(bvh))
         bvh = read_bvh(bvh)
     rig = resolve_rig(mapping, scale, up)
     if not (np.isfinite(fps) and fps > 0):
@@ -210,8 +244,9 @@ def bvh_to_joints(
         raise ValueError("the BVH has no frames")
 
     positions = resample(bvh_positions(bvh), source_fps(bvh.frame_time), fps)  # (T, N, 3) file units
-    joints = map_joints(bvh.names, positions, rig.joint_map) * rig.scale  # (T, 22, 3) metres
-    joints = joints @ _Y_UP[rig.up].T
+    raw = map_joints(bvh.names, positions, rig.joint_map) * rig.scale  # (T, 22, 3) metres, the file's axes
+    _check_floor(raw, rig.up, source)
+    joints = raw @ _Y_UP[rig.up].T
 
     n = joints.shape[0]
     end = n if end is None else end
@@ -234,4 +269,4 @@ def bvh_to_features(bvh: Bvh | str | os.PathLike, **kwargs) -> np.ndarray:
     joints = bvh_to_joints(bvh, **kwargs)
     if joints.shape[0] < 2:
         raise ValueError(f"features need at least 2 frames, the crop leaves {joints.shape[0]}")
-    return joints_to_features(joints, T2M)
+    return checked_features(joints, T2M, name="the BVH")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 
@@ -12,10 +13,52 @@ import numpy as np
 from ..representation import (
     Skeleton,
     get_skeleton,
+    joints_to_features,
     recover_from_ric,
     skeleton_for_feature_dim,
     skeleton_for_joint_count,
 )
+
+
+class MotionWarning(UserWarning):
+    """Something about a motion that does not stop a conversion but changes what comes out (the CLI prints
+    it as one ``warning:`` line)."""
+
+
+def warn(message: str) -> None:
+    warnings.warn(message, MotionWarning, stacklevel=3)
+
+
+def bone_lengths(joints: np.ndarray, skeleton: Skeleton) -> np.ndarray:
+    """Length of every bone per frame ``(T, J-1)``; column ``j-1`` is the bone ending at joint ``j``."""
+    parents = list(skeleton.parents[1:])
+    return np.linalg.norm(joints[:, 1:] - joints[:, parents], axis=-1)
+
+
+def bone_stretch(joints: np.ndarray, skeleton: Skeleton) -> tuple[float, str, float, float]:
+    """The bone whose length varies most within the motion: ``(max - min, "a -> b", min, max)`` in metres.
+
+    Motions decoded from features (generated ones above all) need not keep their bones rigid; a BVH must.
+    """
+    lengths = bone_lengths(joints, skeleton) * skeleton.meters_per_unit  # (T, J-1)
+    lo, hi = lengths.min(axis=0), lengths.max(axis=0)
+    b = int(np.argmax(hi - lo))
+    names = skeleton.joint_names
+    return float(hi[b] - lo[b]), f"{names[skeleton.parents[b + 1]]} -> {names[b + 1]}", float(lo[b]), float(hi[b])
+
+
+def checked_features(joints: np.ndarray, skeleton: Skeleton, name: str = "motion") -> np.ndarray:
+    """``joints_to_features`` that refuses to return NaN: a degenerate pose (hips or shoulders on one point,
+    so no facing direction) raises a ``ValueError`` naming the first bad frame."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        features = joints_to_features(joints, skeleton)
+    bad = ~np.isfinite(features).all(axis=-1)
+    if bad.any():
+        frame = int(np.argmax(bad))
+        raise ValueError(f"{name}: its features are NaN from frame {frame} on ({int(bad.sum())} of {len(bad)} "
+                         "frames): joints coincide (e.g. both hips or both shoulders on one point), so the body "
+                         "has no facing direction")  # fmt: skip
+    return features
 
 
 def as_joints(motion, skeleton: str | Skeleton | None = None, name: str = "motion") -> tuple[np.ndarray, Skeleton]:

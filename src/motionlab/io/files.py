@@ -17,10 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..representation import joints_to_features
 from .bvh_export import save_bvh
-from .bvh_import import bvh_to_joints
-from .common import as_joints, save_npy_atomic
+from .bvh_import import bvh_to_joints, fill_degenerate_joints
+from .common import as_joints, checked_features, save_npy_atomic, warn
 from .html import save_html_animation
 
 MOTION_SUFFIXES = (".bvh", ".html", ".htm", ".npy")
@@ -65,7 +64,7 @@ def _as_features(motion) -> np.ndarray:
         return arr.astype(np.float32)
     if joints.shape[0] < 2:
         raise ValueError("motion needs at least 2 frames to produce features")
-    return joints_to_features(joints, sk).astype(np.float32)
+    return checked_features(joints, sk).astype(np.float32)
 
 
 def load_joints(
@@ -89,13 +88,31 @@ def load_joints(
         raise ValueError(f"input {str(path)!r} does not exist")
     if suffix == ".bvh":
         return bvh_to_joints(path, mapping=mapping, scale=scale, up=up, fps=fps, start=start, end=end)
-    joints, sk = as_joints(np.load(path, allow_pickle=False), name=f"array in {path.name}")
+    array = _read_npy(path)
+    joints, sk = as_joints(array, name=f"array in {path.name}")
     if sk.name != "t2m":
         raise ValueError(f"{path.name}: only t2m motions (22 joints / 263 features) are supported, got {sk.name}")
-    end = joints.shape[0] if end is None else end
-    if not 0 <= start < end <= joints.shape[0]:
-        raise ValueError(f"crop [start, end) = [{start}, {end}) must lie within the {joints.shape[0]} frames")
-    return joints[start:end]
+    joints = joints[_crop(joints.shape[0], start, end)]
+    if array.ndim == 3:  # joints as given: place joints that sit on their parent, as the BVH import does
+        joints, moved = fill_degenerate_joints(joints, sk)
+        if moved:
+            warn(f"{path.name}: {', '.join(moved)} coincide with their parent joint in every frame; placed them "
+                 "halfway to the next joint of their chain")  # fmt: skip
+    return joints
+
+
+def _read_npy(path: Path) -> np.ndarray:
+    try:
+        return np.load(path, allow_pickle=False)
+    except (OSError, ValueError) as err:
+        raise ValueError(f"{path} cannot be read as a .npy array ({err})") from None
+
+
+def _crop(n: int, start: int, end: int | None) -> slice:
+    end = n if end is None else end
+    if not 0 <= start < end <= n:
+        raise ValueError(f"crop [start, end) = [{start}, {end}) must lie within the {n} frames")
+    return slice(start, end)
 
 
 def convert_motion(
@@ -112,8 +129,14 @@ def convert_motion(
     """Read ``src`` (``.bvh``/``.npy``) with :func:`load_joints` and write ``dst`` with :func:`save_motion`.
 
     E.g. ``convert_motion("131_02.bvh", "001417.npy", start=10, end=208)`` gives the 197 feature rows of
-    the HumanML3D clip cut from that take.
+    the HumanML3D clip cut from that take. Features ``.npy`` -> ``.npy`` copies the (cropped) rows, so a
+    round trip keeps every frame; joints -> features gives one row fewer than poses (HumanML3D's convention).
     """
-    _suffix(Path(dst), MOTION_SUFFIXES, "output")  # fail before the (slower) reading
+    src, dst = Path(src), Path(dst)
+    if _suffix(dst, MOTION_SUFFIXES, "output") == ".npy" and src.suffix.lower() == ".npy" and src.is_file():
+        array = _read_npy(src)
+        if array.ndim == 2:  # features -> features: copy the rows (a trip through joints would drop a frame)
+            as_joints(array, "t2m", name=f"array in {src.name}")  # validates shape and values
+            return save_npy_atomic(dst, array[_crop(array.shape[0], start, end)].astype(np.float32))
     joints = load_joints(src, mapping=mapping, scale=scale, up=up, fps=fps, start=start, end=end)
     return save_motion(joints, dst, fps=fps, title=title)

@@ -48,7 +48,10 @@ class Tokenizer(Protocol):
 
 
 def check_motion(motion, feature_dim: int, downsample: int = 4, name: str = "motion") -> torch.Tensor:
-    """Validate ``(B, T, D)`` motion for a tokenizer and return it as a float tensor."""
+    """Validate ``(B, T, D)`` motion for a tokenizer and return it as a float32 tensor.
+
+    Float64 (a NumPy default) and integer input are converted; NaN or inf is rejected, because the nearest
+    code of a NaN latent is silently code 0."""
     if isinstance(motion, np.ndarray):
         motion = torch.from_numpy(motion)
     if not isinstance(motion, torch.Tensor):
@@ -58,8 +61,12 @@ def check_motion(motion, feature_dim: int, downsample: int = 4, name: str = "mot
     t = motion.shape[1]
     if t == 0 or t % downsample:
         raise ValueError(f"{name} length T={t} must be a positive multiple of {downsample}; crop it first")
-    if not motion.is_floating_point():
-        motion = motion.float()
+    if motion.dtype == torch.bool or motion.is_complex():
+        raise ValueError(f"{name} must hold real numbers, got dtype {motion.dtype}")
+    if motion.dtype != torch.float32:
+        motion = motion.float()  # the networks' weights are float32
+    if not torch.isfinite(motion).all():
+        raise ValueError(f"{name} contains NaN or inf values")
     return motion
 
 
@@ -78,6 +85,8 @@ def check_ids(ids, codebook_size: int, num_layers: int | None = None, name: str 
         if ids.dim() != 3 or not 1 <= ids.shape[-1] <= num_layers:
             raise ValueError(f"{name} must have shape (B, N, R) with 1 <= R <= {num_layers}, got {tuple(ids.shape)}")
         low = -1
+    if ids.shape[0] == 0 or ids.shape[1] == 0:
+        raise ValueError(f"{name} must hold at least one token per sequence, got shape {tuple(ids.shape)}")
     if ids.numel() and (int(ids.min()) < low or int(ids.max()) >= codebook_size):
         raise ValueError(
             f"{name} must lie in [{low}, {codebook_size}), got values in [{int(ids.min())}, {int(ids.max())}]"

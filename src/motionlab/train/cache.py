@@ -6,6 +6,13 @@
 The hash covers the whole config (a dataclass) plus ``extra`` (e.g. which data it was trained on), so
 any change trains a new model. The finished folder appears by one atomic rename after training, so a
 crashed run can never be mistaken for a finished one.
+
+A finished artefact records the SHA-256 of its weights in ``config.json`` (``"sha256"``), checked on every
+load: a truncated, garbage or bit-flipped ``model.safetensors`` (or an unreadable ``config.json``) raises
+:class:`DamagedArtefactError` naming the file. :func:`train_or_load` then moves the folder aside, to
+``<hash>.damaged-<time>``, and trains again; :func:`load_trained` (loading only) stops with that error.
+Artefacts written before checksums existed are accepted once if their weights load and are all finite;
+their checksum is recorded then, so later loads verify them too.
 """
 
 from __future__ import annotations
@@ -15,12 +22,15 @@ import hashlib
 import json
 import os
 import shutil
+import sys
+import time
 import uuid
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+import torch
 from torch import nn
 
 from ..paths import cache_path
@@ -80,6 +90,23 @@ def artefact_dir(name: str, config: Any, profile: str | None = None, extra: dict
     return cache_path("models", name, get_profile(profile), config_hash(config, extra))
 
 
+class DamagedArtefactError(ValueError):
+    """A cached artefact whose files are damaged (checksum mismatch, unreadable or non-finite weights)."""
+
+    def __init__(self, folder: Path, message: str):
+        super().__init__(message)
+        self.folder = folder
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    """SHA-256 hex digest of a file, read in 1 MiB blocks."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
 def is_trained(name: str, config: Any, profile: str | None = None, extra: dict[str, Any] | None = None) -> bool:
     return (artefact_dir(name, config, profile, extra) / "model.safetensors").is_file()
 
@@ -93,16 +120,72 @@ def load_trained(
     extra: dict[str, Any] | None = None,
     device: str | None = None,
 ) -> nn.Module:
-    """Build the model from ``config`` and load its finished weights; ``FileNotFoundError`` if never trained."""
+    """Build the model from ``config`` and load its finished weights; ``FileNotFoundError`` if never trained.
+
+    Damaged files raise :class:`DamagedArtefactError` (a ``ValueError``) naming the file; the folder is left
+    in place (:func:`train_or_load` moves it aside and retrains).
+    """
     folder = artefact_dir(name, config, profile, extra)
     if not (folder / "model.safetensors").is_file():
         raise FileNotFoundError(f"no trained {name!r} for profile {get_profile(profile)!r} at {folder}; train it first")
-    saved = json.loads((folder / "config.json").read_text())
-    if saved["config"] != config_dict(config):
-        raise ValueError(f"{folder}/config.json does not match the requested config")
     model = build_fn(config)
-    load_weights(model, folder / "model.safetensors")
+    _load_verified(model, folder, name, config_dict(config))
     return model.to(get_device(device)).eval()
+
+
+def _damaged(folder: Path, name: str, what: str) -> DamagedArtefactError:
+    return DamagedArtefactError(folder, f"the cached {name!r} model is damaged: {what}; the next command that "
+                                        f"trains it moves {folder.name} aside and trains it again")  # fmt: skip
+
+
+def _load_verified(model: nn.Module, folder: Path, name: str, wanted: dict[str, Any]) -> None:
+    """Load ``folder/model.safetensors`` into ``model`` after checking it against the recorded checksum."""
+    weights, info_path = folder / "model.safetensors", folder / "config.json"
+    try:
+        info = json.loads(info_path.read_text())
+        if not isinstance(info, dict) or "config" not in info:
+            raise ValueError("no 'config' entry")
+    except (OSError, ValueError) as err:  # json.JSONDecodeError and UnicodeDecodeError are ValueErrors
+        raise _damaged(folder, name, f"{info_path} cannot be read ({err})") from None
+    if info["config"] != wanted:
+        raise ValueError(f"{info_path} does not match the requested config")
+    recorded = info.get("sha256")
+    if recorded is not None and file_sha256(weights) != recorded:
+        raise _damaged(folder, name, f"{weights} does not match its recorded checksum (truncated or altered)")
+    try:
+        load_weights(model, weights)
+    except ValueError:
+        if recorded is None:  # a legacy artefact whose weights do not fit: damaged, not a config mismatch
+            raise _damaged(folder, name, f"{weights} does not hold this model's weights") from None
+        raise
+    except Exception as err:  # safetensors' own error type for a truncated or garbage file
+        raise _damaged(folder, name, f"{weights} cannot be read ({type(err).__name__}: {err})") from None
+    if recorded is None:  # written before checksums existed: accept finite weights once, then record them
+        if not all(torch.isfinite(t).all() for t in model.state_dict().values() if t.is_floating_point()):
+            raise _damaged(folder, name, f"{weights} holds NaN or inf values")
+        try:
+            info["sha256"] = file_sha256(weights)
+            _write_json_atomic(info_path, info)
+        except OSError:
+            pass  # a read-only cache still loads; it just stays unverified
+
+
+def _write_json_atomic(path: Path, data: Any) -> None:
+    tmp = path.with_name(f".{path.name}.tmp-{uuid.uuid4().hex[:8]}")
+    try:
+        tmp.write_text(json.dumps(data, indent=1, default=str))
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def move_aside(folder: Path) -> Path:
+    """Rename a damaged artefact folder to ``<name>.damaged-<YYYYmmdd-HHMMSS>`` (kept for inspection)."""
+    target = folder.with_name(f"{folder.name}.damaged-{time.strftime('%Y%m%d-%H%M%S')}")
+    while target.exists():
+        target = target.with_name(target.name + "x")
+    os.replace(folder, target)
+    return target
 
 
 def load_result(name: str, config: Any, profile: str | None = None, extra: dict[str, Any] | None = None) -> Any:
@@ -131,7 +214,14 @@ def train_or_load(
     """
     final = artefact_dir(name, config, profile, extra)
     if not retrain and (final / "model.safetensors").is_file():
-        return load_trained(name, config, build_fn, profile, extra=extra, device=device)
+        try:
+            return load_trained(name, config, build_fn, profile, extra=extra, device=device)
+        except DamagedArtefactError as err:
+            if current_context().is_main:  # under torchrun one rank moves it; all of them retrain
+                moved = move_aside(final) if final.exists() else final
+                print(f"warning: {str(err).split(';')[0]}; moved it to {moved.name} and training it again",
+                      file=sys.stderr)  # fmt: skip
+            barrier(current_context())
     check_may_train(f"model {name!r} ({get_profile(profile)}, {final.name})")
     work = final.with_name(final.name + ".work")
     model = build_fn(config)
@@ -150,7 +240,8 @@ def _publish(final: Path, work: Path, model: nn.Module, result: Any, name: str, 
     try:
         save_weights(model.state_dict(), tmp / "model.safetensors")
         info = {"name": name, "profile": get_profile(profile), "hash": final.name, "type": type(config).__name__,
-                "config": config_dict(config), "extra": extra or {}}  # fmt: skip
+                "config": config_dict(config), "extra": extra or {},
+                "sha256": file_sha256(tmp / "model.safetensors")}  # fmt: skip
         (tmp / "config.json").write_text(json.dumps(info, indent=1, default=str))
         (tmp / "result.json").write_text(json.dumps(result, indent=1, default=str))
         if final.exists():  # retrain=True over an old artefact

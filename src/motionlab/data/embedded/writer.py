@@ -15,10 +15,13 @@ The folder is assembled next to the target under a hidden temporary name and mov
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import shutil
+import sys
 import tempfile
+import time
 from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing import get_all_start_methods, get_context
@@ -184,11 +187,56 @@ def embedded_path(profile: str | None = None, seed: int = 0) -> Path:
     return cache_path("data", f"embedded-v{VERSION}-n{n}-s{seed}")
 
 
+def _npy_size(shape: tuple[int, ...]) -> int:
+    """Bytes of a float32 ``.npy`` of ``shape`` as ``np.save`` writes it (format 1.0 header + data)."""
+    header = io.BytesIO()
+    np.lib.format.write_array_header_1_0(header, {"descr": "<f4", "fortran_order": False, "shape": shape})
+    return len(header.getvalue()) + 4 * int(np.prod(shape))
+
+
+def embedded_damage(root: str | os.PathLike) -> str | None:
+    """What is wrong with a cached embedded dataset (a missing or truncated file), or None when intact.
+
+    Cheap enough for every start (file sizes only): each clip's two arrays must have exactly the size its
+    ``meta.json`` length implies, its caption file must exist, and Mean/Std must be whole.
+    """
+    root = Path(root)
+    try:
+        meta = json.loads((root / "meta.json").read_text(encoding="utf-8"))
+        clips = meta["clips"]
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        return f"{root / 'meta.json'} cannot be read ({err})"
+    expected = {"Mean.npy": _npy_size((263,)), "Std.npy": _npy_size((263,))}
+    for cid, info in clips.items():
+        n = int(info["n_frames"])
+        expected[f"new_joint_vecs/{cid}.npy"] = _npy_size((n, 263))
+        expected[f"new_joints/{cid}.npy"] = _npy_size((n, 22, 3))
+        expected[f"texts/{cid}.txt"] = -1  # any non-empty size
+    for name, size in expected.items():
+        try:
+            actual = os.stat(root / name).st_size
+        except OSError:
+            return f"{root / name} is missing"
+        if actual != size and not (size < 0 and actual > 0):
+            return f"{root / name} has {actual} bytes, expected {size if size >= 0 else 'some'} (truncated?)"
+    return None
+
+
 def ensure_embedded(profile: str | None = None, seed: int = 0, progress: bool = True) -> Path:
-    """The embedded dataset folder for ``profile`` (smoke / laptop / full), generated on first use."""
+    """The embedded dataset folder for ``profile`` (smoke / laptop / full), generated on first use.
+
+    A cached copy with a missing or truncated file (:func:`embedded_damage`) is moved aside to
+    ``<name>.damaged-<time>`` and generated again (the generator is deterministic).
+    """
     path = embedded_path(profile, seed)
     if (path / "meta.json").is_file():
-        return path
+        damage = embedded_damage(path)
+        if damage is None:
+            return path
+        moved = path.with_name(f"{path.name}.damaged-{time.strftime('%Y%m%d-%H%M%S')}")
+        os.replace(path, moved)
+        print(f"warning: the cached embedded dataset is damaged: {damage}; moved it to {moved.name} and "
+              "generating it again", file=sys.stderr)  # fmt: skip
     check_may_train(f"the embedded dataset {path.name}")
     n = EMBEDDED_SIZES[get_profile(profile)]
     try:
