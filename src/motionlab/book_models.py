@@ -6,6 +6,8 @@ same profile, same config), so the cache keys agree by construction; a test chec
 everything cached after the plan ran.
 
     data ─┬─ tokenizer/vq ──┬─ t2m/dynamic, t2m/uniform           (chapters 07, 08, 09)
+          │                 ├─ t2m/multi-eta0.25                   (chapters 08, 09)
+          │                 ├─ t2m/dynamic-seed1, t2m/uniform-seed1 (chapter 08's training-seed control)
           │                 └─ discord/vq                          (chapter 09)
           ├─ tokenizer/rvq ─── discord/rvq, discord/rvq-repeat,
           │                    discord/rvq-transposed              (chapters 04, 05)
@@ -20,6 +22,8 @@ from __future__ import annotations
 
 from functools import lru_cache, partial
 
+from .diffusion.training import PAPER_ETA
+from .multimotion import MULTI_MOTION_ETA
 from .profiles import get_profile
 from .train.cache import NotCached, cache_probe
 from .train.plan import Job
@@ -28,7 +32,7 @@ from .train.plan import Job
 # by `motionlab train book`; they drive the plan line and the progress estimates, nothing else.
 ESTIMATES_S: dict[str, dict[str, float]] = {
     "smoke": {"data": 8, "tokenizer": 10, "toy_flow": 5, "evaluator": 10, "discord": 10, "t2m": 15},
-    "laptop": {"data": 150, "tokenizer": 330, "toy_flow": 60, "evaluator": 300, "discord": 590, "t2m": 330},
+    "laptop": {"data": 150, "tokenizer": 330, "toy_flow": 60, "evaluator": 300, "discord": 590, "t2m": 780},
     "full": {"data": 1500, "tokenizer": 36_000, "toy_flow": 300, "evaluator": 36_000, "discord": 360_000,
              "t2m": 180_000},
 }  # fmt: skip
@@ -84,10 +88,10 @@ def projection_config(profile: str, tokenizer, projection: str = "stacked", seed
     return discord_config(profile, tokenizer=tokenizer, projection=projection, seed=seed)
 
 
-def make_text_to_motion(profile: str, seed: int, eta: float | None) -> None:
+def make_text_to_motion(profile: str, seed: int, eta: float | None, training_seed: int | None = None) -> None:
     from .diffusion import text_to_motion_for_dataset
 
-    text_to_motion_for_dataset(_dataset(profile, seed), profile, eta=eta)
+    text_to_motion_for_dataset(_dataset(profile, seed), profile, eta=eta, seed=training_seed)
 
 
 # -- the plan ------------------------------------------------------------------------------------------------------
@@ -118,6 +122,11 @@ def book_jobs(profile: str | None = None, seed: int = 0) -> list[Job]:
         job("discord/vq", partial(make_discord, profile, seed, "vq"), "discord", ("tokenizer/vq",)),
         job("t2m/dynamic", partial(make_text_to_motion, profile, seed, None), "t2m", ("tokenizer/vq",)),
         job("t2m/uniform", partial(make_text_to_motion, profile, seed, 0.0), "t2m", ("tokenizer/vq",)),
+        job("t2m/multi-eta0.25", partial(make_text_to_motion, profile, seed, MULTI_MOTION_ETA), "t2m",
+            ("tokenizer/vq",)),
+        # chapter 08's training-seed replicates (seed 0 of each arm is the pair above)
+        job("t2m/dynamic-seed1", partial(make_text_to_motion, profile, seed, PAPER_ETA, 1), "t2m", ("tokenizer/vq",)),
+        job("t2m/uniform-seed1", partial(make_text_to_motion, profile, seed, 0.0, 1), "t2m", ("tokenizer/vq",)),
         job("discord/rvq-repeat", partial(make_discord, profile, seed, "rvq", "repeat"), "discord", ("tokenizer/rvq",)),
         job("discord/rvq-transposed", partial(make_discord, profile, seed, "rvq", "transposed"), "discord",
             ("tokenizer/rvq",)),
