@@ -22,6 +22,7 @@ import numpy as np
 import torch
 
 from ._checks import as_float_array, check_joints
+from .joints import ClipJoints
 
 TIME_UNITS = ("frames", "seconds")
 
@@ -152,10 +153,50 @@ def log_jerk_batch(windows, time_unit: str = "frames", fps: float = 20.0) -> np.
     w = as_float_array(windows, "windows")
     if w.ndim != 4 or w.shape[-1] != 3 or w.shape[1] < 4:
         raise ValueError(f"windows must have shape (N, W>=4, J, 3), got {w.shape}")
-    per_joint = _per_joint_log_jerk(w, dt)  # (N, J)
+    return _mean_over_joints(_per_joint_log_jerk(w, dt))
+
+
+def _mean_over_joints(per_joint: np.ndarray) -> np.ndarray:
+    """``(N, J)`` -> ``(N,)``: the mean over the joints that move, NaN where none does."""
     counts = (~np.isnan(per_joint)).sum(axis=1)
     with np.errstate(invalid="ignore"):
         return np.where(counts > 0, np.nansum(per_joint, axis=1) / np.maximum(counts, 1), np.nan)
+
+
+_WINDOW_BLOCK = 1024  # windows gathered at a time: bounds the (block, W, J, 3) copy
+
+
+def clip_log_jerk(
+    joints: ClipJoints, boundaries: Sequence[int] | None = None, window: int = 40, time_unit: str = "frames",
+    fps: float = 20.0,
+) -> np.ndarray:  # fmt: skip
+    """Eq. 10 around one boundary of every clip of a set ``(N,)``, without a loop over clips.
+
+    ``boundaries[i]`` (default: each clip's middle frame, ``T_i // 2``) is a frame strictly inside clip ``i``;
+    its window is :func:`transition_windows`' (``window`` frames, shifted inside the clip; the whole clip if
+    it has no more than ``window`` frames), so value ``i`` equals ``transition_log_jerk(clip_i, [b_i],
+    window)[0]``. Windows of equal length are gathered from the packed joints and scored together. The
+    LDLJ of the same windows is ``ldlj_from_log_jerk(values, np.minimum(joints.lengths, window))``.
+    """
+    dt = _time_step(time_unit, fps)
+    if window < 4:
+        raise ValueError(f"window must be at least 4 frames (a third difference), got {window}")
+    n = joints.lengths
+    if (n < 4).any():
+        raise ValueError(f"clip {int(np.argmax(n < 4))} has fewer than 4 frames")
+    b = n // 2 if boundaries is None else np.asarray(boundaries, np.int64)
+    if b.shape != n.shape or (b <= 0).any() or (b >= n).any():
+        raise ValueError(f"boundaries must be {len(n)} frames, each strictly inside its clip")
+    size = np.minimum(n, window)  # (N,) frames of each window
+    first = joints.starts + np.clip(b - window // 2, 0, n - size)  # (N,) the window's first row in positions
+    out = np.empty(len(n))
+    for w in np.unique(size):
+        chosen = np.flatnonzero(size == w)
+        for s in range(0, len(chosen), _WINDOW_BLOCK):
+            part = chosen[s : s + _WINDOW_BLOCK]
+            windows = joints.positions[first[part, None] + np.arange(w)]  # (M, w, J, 3)
+            out[part] = _mean_over_joints(_per_joint_log_jerk(windows, dt))
+    return out
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -193,7 +234,7 @@ def log_dimensionless_jerk(speed, fs: float) -> float:
     return float(-np.log(abs(dimensionless_jerk(speed, fs))))
 
 
-def ldlj_from_log_jerk(value: float, n_frames: int, time_unit: str = "frames", fps: float = 20.0) -> float:
+def ldlj_from_log_jerk(value, n_frames, time_unit: str = "frames", fps: float = 20.0):
     """Turn an Eq. 10 value of a ``n_frames`` window into the LDLJ of the same signal.
 
     Eq. 10 is ``E = ln(integral ||j||^2 dt / v_peak^2)`` with no duration factor and no minus sign, while
@@ -206,8 +247,13 @@ def ldlj_from_log_jerk(value: float, n_frames: int, time_unit: str = "frames", f
     seconds and ``3 ln D`` shrinks by the same amount. For one joint whose velocity keeps its direction,
     the speed's second difference equals the vector jerk and the identity is exact; Eq. 10 (averaged
     over joints) is therefore "minus LDLJ, without the duration term, of each joint's 3-D path".
+    ``value`` and ``n_frames`` may be arrays (e.g. from :func:`clip_log_jerk`): the result is then an array.
     """
     dt = _time_step(time_unit, fps)
-    if int(n_frames) < 4:
+    frames = np.asarray(n_frames)
+    if not np.issubdtype(frames.dtype, np.integer) and not np.all(frames == np.round(frames)):
+        raise ValueError(f"n_frames must be whole numbers, got {n_frames}")
+    if (frames < 4).any():
         raise ValueError(f"n_frames must be at least 4, got {n_frames}")
-    return float(-value - 3.0 * np.log((int(n_frames) - 1) * dt))
+    out = -np.asarray(value, dtype=np.float64) - 3.0 * np.log((frames.astype(np.int64) - 1) * dt)
+    return float(out) if out.ndim == 0 else out

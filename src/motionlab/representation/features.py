@@ -206,6 +206,111 @@ def recover_from_ric(features, n_joints: int | None = None):
     return like_input(torch.cat((root[..., None, :], ric), dim=-2), was_numpy)
 
 
+# --- many clips at once, on their real frames only ------------------------------------------------------
+
+_CHUNK_FRAMES = 1024  # frames rotated per step: the temporaries of one step stay in cache
+
+
+def _packed_rows(features, lengths, n_cols: int) -> tuple[np.ndarray, np.ndarray]:
+    """The first ``n_cols`` feature columns of every real frame, clip after clip ``(F, n_cols)`` (the input's
+    float dtype), and the lengths ``(N,)``. ``features``: a list of ``(T_i, D)``, or ``(N, T, D)`` + ``lengths``."""
+
+    def as_numpy(x) -> np.ndarray:
+        return x.detach().cpu().numpy() if isinstance(x, torch.Tensor) else np.asarray(x)
+
+    if isinstance(features, (list, tuple)):
+        if lengths is not None:
+            raise ValueError("lengths is only used with a padded (N, T, D) array; crop list items yourself")
+        clips = [as_numpy(f) for f in features]
+        for i, c in enumerate(clips):
+            if c.ndim != 2 or c.shape[-1] != clips[0].shape[-1] or len(c) == 0:
+                raise ValueError(f"features[{i}] must have shape (T >= 1, {clips[0].shape[-1]}), got {c.shape}")
+        n = np.array([len(c) for c in clips], dtype=np.int64)
+        rows = np.concatenate([c[:, :n_cols] for c in clips], axis=0)
+    else:
+        padded = as_numpy(features)
+        if padded.ndim != 3:
+            raise ValueError(f"features must be a list of (T_i, D) arrays or a padded (N, T, D) array, "
+                             f"got shape {padded.shape}")  # fmt: skip
+        n = np.full(len(padded), padded.shape[1], np.int64) if lengths is None else np.asarray(lengths, np.int64)
+        if n.shape != (len(padded),) or (n < 1).any() or (n > padded.shape[1]).any():
+            raise ValueError(f"lengths must be {len(padded)} values in [1, {padded.shape[1]}], got {n.tolist()}")
+        rows = padded[:, :, :n_cols][np.arange(padded.shape[1]) < n[:, None]]  # padding is never read
+    if not np.issubdtype(rows.dtype, np.floating):
+        rows = rows.astype(np.float64)
+    return rows, n
+
+
+def _rotate_y(c, uy, x, z):
+    """x and z of ``v = (x, y, z)`` rotated by the unit quaternion ``(c, 0, uy, 0)`` (y does not change).
+
+    ``_qrot``'s ``v + 2 (w (u x v) + u x (u x v))`` with the zero terms of ``u = (0, uy, 0)`` left out and the
+    rest in the same order, so it gives ``_qrot``'s result to the bit; no broadcast quaternion tensors.
+    """
+    a = uy * z  # (u x v)_x
+    b = -uy * x  # (u x v)_z
+    return x + 2.0 * (c * a + uy * b), z + 2.0 * (c * b - uy * a)
+
+
+def recover_packed_from_ric(features, lengths=None, n_joints: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`recover_from_ric` of many clips at once, on their real frames only, in float64.
+
+    ``features``: a list of ``(T_i, D)`` arrays (NumPy or torch), or a padded ``(N, T, D)`` array with
+    ``lengths`` (frames past ``lengths[i]`` are never read, not even checked for NaN). Returns the joint
+    positions of every real frame, clip after clip, ``(sum_i T_i, J, 3)`` float64 C-contiguous, and the
+    lengths ``(N,)``: ``positions[start_i : start_i + T_i]`` equals ``recover_from_ric(clip_i)`` in float64.
+
+    The root's rotation and position are integrated per clip on an ``(N, max T)`` grid (four numbers a frame);
+    the root-relative joints -- the bulk of the work -- are then rotated as flat arrays, a cache-sized block
+    of frames at a time, by the root's rotation about y written out.
+    """
+    dim = features[0].shape[-1] if isinstance(features, (list, tuple)) and len(features) else features.shape[-1]
+    if isinstance(features, (list, tuple)) and not features:
+        raise ValueError("features is an empty list")
+    sk = skeleton_for_feature_dim(int(dim))
+    if n_joints is not None and n_joints != sk.n_joints:
+        raise ValueError(f"features of dimension {dim} belong to {sk.name} ({sk.n_joints} joints), not {n_joints}")
+    j = sk.n_joints
+    rows, n = _packed_rows(features, lengths, 4 + 3 * (j - 1))  # (F, 4 + 3 (J-1))
+    finite = np.isfinite(rows).all(axis=1)
+    if not finite.all():
+        bad = int(np.searchsorted(np.cumsum(n), np.argmin(finite), side="right"))
+        raise ValueError(f"features of clip {bad} contain NaN or inf values")
+    frames = len(rows)
+    clip = np.repeat(np.arange(len(n)), n)  # (F,) the clip of each frame
+    t = np.arange(frames) - np.repeat(np.cumsum(n) - n, n)  # (F,) the frame within its clip
+    root_in = rows[:, :4].astype(np.float64)  # (F, 4): rotation increment, x/z step, height
+
+    # Root rotation about y: the half-angle sums the previous frames' increments, per clip.
+    grid = np.zeros((len(n), int(n.max())))  # (N, max T), zero past each clip's end
+    grid[clip, t] = root_in[:, 0]
+    angle = np.zeros_like(grid)
+    angle[:, 1:] = np.cumsum(grid[:, :-1], axis=1)
+    angle = angle[clip, t]
+    c, uy = np.cos(angle), -np.sin(angle)  # (F,) each: the inverse rotation (cos, 0, -sin, 0)
+
+    # Root position: the previous frame's (x, z) step turned into the world frame, summed per clip.
+    first = t == 0
+    prev_x, prev_z = (np.where(first, 0.0, np.roll(root_in[:, k], 1)) for k in (1, 2))  # (F,) each
+    steps = _rotate_y(c, uy, prev_x, prev_z)
+    root = np.empty((frames, 3))
+    for axis, step in zip((0, 2), steps):
+        grid[clip, t] = step
+        root[:, axis] = np.cumsum(grid, axis=1)[clip, t]
+    root[:, 1] = root_in[:, 3]
+
+    out = np.empty((frames, j, 3))  # (F, J, 3)
+    out[:, 0] = root
+    ric = rows[:, 4:].reshape(frames, j - 1, 3)  # (F, J-1, 3): facing +Z, x/z relative to the root
+    for s in range(0, frames, _CHUNK_FRAMES):
+        part = slice(s, s + _CHUNK_FRAMES)
+        x, z = _rotate_y(c[part, None], uy[part, None], ric[part, :, 0], ric[part, :, 2])
+        out[part, 1:, 0] = x + root[part, None, 0]
+        out[part, 1:, 1] = ric[part, :, 1]
+        out[part, 1:, 2] = z + root[part, None, 2]
+    return out, n
+
+
 def recover_from_rot(features, skeleton: str | Skeleton | None = None):
     """Joint positions ``(..., T, J, 3)`` by forward kinematics of the 6D rotations on the target skeleton."""
     data, was_numpy, sk = _check_features(features)
