@@ -264,9 +264,9 @@ def recover_packed_from_ric(features, lengths=None, n_joints: int | None = None)
     the root-relative joints -- the bulk of the work -- are then rotated as flat arrays, a cache-sized block
     of frames at a time, by the root's rotation about y written out.
     """
-    dim = features[0].shape[-1] if isinstance(features, (list, tuple)) and len(features) else features.shape[-1]
     if isinstance(features, (list, tuple)) and not features:
         raise ValueError("features is an empty list")
+    dim = (features[0] if isinstance(features, (list, tuple)) else features).shape[-1]
     sk = skeleton_for_feature_dim(int(dim))
     if n_joints is not None and n_joints != sk.n_joints:
         raise ValueError(f"features of dimension {dim} belong to {sk.name} ({sk.n_joints} joints), not {n_joints}")
