@@ -31,11 +31,13 @@ class ClipJoints:
     lengths: np.ndarray  # (N,) int64, each >= 1
 
     def __post_init__(self):
-        if self.positions.ndim != 3 or self.positions.shape[-1] != 3 or self.positions.dtype != np.float64:
-            raise ValueError(f"positions must be a float64 (F, J, 3) array, got {self.positions.dtype} "
-                             f"{self.positions.shape}")  # fmt: skip
-        if self.lengths.ndim != 1 or (self.lengths < 1).any() or self.lengths.sum() != len(self.positions):
-            raise ValueError(f"lengths must be positive and sum to the {len(self.positions)} frames of positions")
+        object.__setattr__(self, "lengths", np.asarray(self.lengths, dtype=np.int64))
+        p = self.positions
+        if not isinstance(p, np.ndarray) or p.ndim != 3 or p.shape[-1] != 3 or p.dtype != np.float64:
+            raise ValueError(f"positions must be a float64 (F, J, 3) array, got {getattr(p, 'dtype', type(p))} "
+                             f"{np.shape(p)}")  # fmt: skip
+        if self.lengths.ndim != 1 or (self.lengths < 1).any() or self.lengths.sum() != len(p):
+            raise ValueError(f"lengths must be positive and sum to the {len(p)} frames of positions")
 
     @classmethod
     def from_features(cls, features, lengths: Sequence[int] | None = None) -> ClipJoints:
