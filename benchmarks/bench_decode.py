@@ -137,13 +137,13 @@ def table(result: dict) -> str:
         f"params: feed-forward {result['params']['feed_forward'] / 1e6:.1f} M, "
         f"DisCoRD {result['params']['discord'] / 1e6:.1f} M",
         f"{'decoder':<13}{'solver':<10}{'steps':>6}{'NFE':>5}{'batch':>6}{'GMAC':>7}{'× FF':>7}"
-        f"{'cpu ms/clip':>24}{'× FF (cpu)':>20}{'wall ms/clip':>24}{'× FF (wall)':>20}",
+        f"{'cpu ms/clip':>26}{'× FF (cpu)':>24}{'wall ms/clip':>26}{'× FF (wall)':>24}",
     ]
     for r in result["rows"]:
         lines.append(
             f"{r['decoder']:<13}{r['solver']:<10}{r['steps']:>6}{r['evaluations']:>5}{r['batch']:>6}"
             f"{r['gmac_per_clip']:>7.2f}{r['ratio_macs']:>7.2f}"
-            f"{cell(r, 'cpu'):>24}{times(r, 'cpu'):>20}{cell(r, 'wall'):>24}{times(r, 'wall'):>20}"
+            f"{cell(r, 'cpu'):>26}{times(r, 'cpu'):>24}{cell(r, 'wall'):>26}{times(r, 'wall'):>24}"
         )
     for batch, ratio_ in result["ratio_2_euler"].items():
         verdict = "within" if ratio_["cpu"] <= 3.0 else "NOT within"
