@@ -95,3 +95,17 @@ def test_clip_log_jerk_of_a_frozen_clip_is_nan():
     still = ClipJoints.from_joints([np.zeros((8, 22, 3)), cubic])
     values = clip_log_jerk(still, window=6)
     assert np.isnan(values[0]) and np.isfinite(values[1])
+
+
+def test_sjpe_scored_block_by_block_equals_one_pass(pair, monkeypatch):
+    import importlib
+
+    sjpe_module = importlib.import_module("motionlab.metrics.sjpe")  # the package exports a function of that name
+
+    p, g = ClipJoints.from_features(pair[0]), ClipJoints.from_features(pair[1])
+    whole = sjpe_variants(p, g)
+    monkeypatch.setattr(sjpe_module, "_BLOCK_FRAMES", 50)  # blocks of 1-2 clips (4+40, 41, 77, 196 frames)
+    assert sjpe_module._blocks(p.lengths) == [(0, 2), (2, 3), (3, 4), (4, 5)]
+    for variant, result in sjpe_variants(p, g).items():
+        for field in ("noise_per_clip", "static_per_clip", "jerk_pred_per_clip", "jerk_gt_per_clip"):
+            np.testing.assert_array_equal(getattr(result, field), getattr(whole[variant], field))

@@ -133,10 +133,9 @@ def _numpy(x) -> np.ndarray:
     return x.detach().cpu().numpy() if isinstance(x, torch.Tensor) else np.asarray(x)
 
 
-def _selected(clips, lengths, name: str, setting: SJPESetting) -> tuple[np.ndarray, np.ndarray]:
-    """The selected joints of every real frame in metres, float64, packed clip after clip ``(F, n_sel, 3)``,
-    and the lengths ``(N,)``. ``clips``: a :class:`ClipJoints`, a list of ``(T_i, J, 3)``, or a padded
-    ``(N, T, J, 3)`` array with ``lengths``. Padding is never read, not even to check it is finite."""
+def _clip_joints(clips, lengths, name: str, setting: SJPESetting) -> ClipJoints:
+    """``clips`` -- a :class:`ClipJoints`, a list of ``(T_i, J, 3)``, or a padded ``(N, T, J, 3)`` array with
+    ``lengths`` -- validated and packed. Padding is never read, not even to check it is finite."""
     if isinstance(clips, ClipJoints):
         if lengths is not None:
             raise ValueError(f"lengths is not used with a ClipJoints {name}: it carries its own")
@@ -170,9 +169,29 @@ def _selected(clips, lengths, name: str, setting: SJPESetting) -> tuple[np.ndarr
     if len(short):
         raise ValueError(f"{name}[{short[0]}] needs at least 4 frames (a third difference), "
                          f"got {joints.lengths[short[0]]}")  # fmt: skip
+    return joints
+
+
+def _select(positions: np.ndarray, setting: SJPESetting) -> np.ndarray:
+    """The selected joints of packed positions ``(F, J, 3)``, in metres: ``(F, n_sel, 3)``."""
     columns = (3 * np.array(setting.joints)[:, None] + np.arange(3)).ravel()  # x, y, z of each selected joint
-    selected = joints.positions.reshape(len(joints.positions), -1)[:, columns].reshape(-1, len(setting.joints), 3)
-    return (selected * setting.to_metres if setting.to_metres != 1.0 else selected), joints.lengths  # (F, n_sel, 3)
+    selected = positions.reshape(len(positions), -1)[:, columns].reshape(-1, len(setting.joints), 3)
+    return selected * setting.to_metres if setting.to_metres != 1.0 else selected
+
+
+_BLOCK_FRAMES = 16384  # clips are scored a block of about this many frames at a time: the temporaries stay in cache
+
+
+def _blocks(lengths: np.ndarray) -> list[tuple[int, int]]:
+    """Consecutive clip ranges ``[a, b)`` of about ``_BLOCK_FRAMES`` frames each (at least one clip)."""
+    ends = np.cumsum(lengths)
+    out, a = [], 0
+    while a < len(lengths):
+        start = ends[a] - lengths[a]
+        b = max(a + 1, int(np.searchsorted(ends, start + _BLOCK_FRAMES, side="right")))
+        out.append((a, b))
+        a = b
+    return out
 
 
 def sjpe_dataset(
@@ -181,8 +200,9 @@ def sjpe_dataset(
     """sJPE over many clips of possibly different lengths.
 
     ``pred_clips``/``gt_clips``: lists of ``(T_i, J, 3)`` joint positions (all joints of the skeleton;
-    metres for t2m, millimetres for KIT), or padded ``(N, T, J, 3)`` arrays with ``lengths`` -- frames
-    past ``lengths[i]`` are never read. Pair ``i`` must have equal lengths.
+    metres for t2m, millimetres for KIT), padded ``(N, T, J, 3)`` arrays with ``lengths`` -- frames
+    past ``lengths[i]`` are never read -- or :class:`ClipJoints` (recovered once, shared with other metrics;
+    the fastest). Pair ``i`` must have equal lengths.
     """
     if variant not in VARIANTS:
         raise ValueError(f"variant must be one of {VARIANTS}, got {variant!r}")
@@ -198,21 +218,31 @@ def sjpe_variants(
     if unknown:
         raise ValueError(f"variants must be among {VARIANTS}, got {unknown}")
     setting = sjpe_setting(skeleton)
-    pred, n_pred = _selected(pred_clips, lengths, "pred_clips", setting)
-    gt, n_gt = _selected(gt_clips, lengths, "gt_clips", setting)
-    if len(n_pred) != len(n_gt):
-        raise ValueError(f"pred_clips has {len(n_pred)} clips but gt_clips has {len(n_gt)}")
-    differ = np.flatnonzero(n_pred != n_gt)
+    pred = _clip_joints(pred_clips, lengths, "pred_clips", setting)
+    gt = _clip_joints(gt_clips, lengths, "gt_clips", setting)
+    if len(pred) != len(gt):
+        raise ValueError(f"pred_clips has {len(pred)} clips but gt_clips has {len(gt)}")
+    differ = np.flatnonzero(pred.lengths != gt.lengths)
     if len(differ):
         i = int(differ[0])
-        raise ValueError(f"clip {i}: prediction has {n_pred[i]} frames but ground truth has {n_gt[i]}")
-    n = len(n_pred)
-    jp, clip_id = _jerk_magnitudes(pred, n_pred, setting.fps)
-    jg, _ = _jerk_magnitudes(gt, n_gt, setting.fps)
-    n_cells = np.bincount(clip_id, minlength=n) * len(setting.joints)
-    mean_p = np.bincount(clip_id, weights=_row_sums(jp), minlength=n) / n_cells
-    mean_g = np.bincount(clip_id, weights=_row_sums(jg), minlength=n) / n_cells
-    return {v: SJPEResult(*_score(jp, jg, clip_id, n, v), mean_p, mean_g) for v in variants}
+        raise ValueError(f"clip {i}: prediction has {pred.lengths[i]} frames but ground truth has {gt.lengths[i]}")
+    # Clips are independent: score them a block at a time (whole clips per block, so every value is the
+    # same as in one pass), which keeps the jerk arrays of a block in cache.
+    parts: dict[str, list] = {v: [] for v in variants}
+    means: list[tuple[np.ndarray, np.ndarray]] = []
+    starts = pred.starts
+    for a, b in _blocks(pred.lengths):
+        rows = slice(int(starts[a]), int(starts[b - 1] + pred.lengths[b - 1]))
+        n = pred.lengths[a:b]
+        jp, clip_id = _jerk_magnitudes(_select(pred.positions[rows], setting), n, setting.fps)
+        jg, _ = _jerk_magnitudes(_select(gt.positions[rows], setting), n, setting.fps)
+        n_cells = np.bincount(clip_id, minlength=b - a) * len(setting.joints)
+        means.append((np.bincount(clip_id, weights=_row_sums(jp), minlength=b - a) / n_cells,
+                      np.bincount(clip_id, weights=_row_sums(jg), minlength=b - a) / n_cells))  # fmt: skip
+        for v in variants:
+            parts[v].append(_score(jp, jg, clip_id, b - a, v))
+    mean_p, mean_g = (np.concatenate(m) for m in zip(*means))
+    return {v: SJPEResult(*(np.concatenate(x) for x in zip(*parts[v])), mean_p, mean_g) for v in variants}
 
 
 def sjpe_jerk_magnitudes(clips, skeleton: str = "t2m") -> np.ndarray:
@@ -220,8 +250,8 @@ def sjpe_jerk_magnitudes(clips, skeleton: str = "t2m") -> np.ndarray:
     joint clips (all joints; metres for t2m, millimetres for KIT) or a :class:`ClipJoints`. Its percentiles say
     how much fine, fast motion a dataset has: the yardstick an sJPE is relative to."""
     setting = sjpe_setting(skeleton)
-    packed, lengths = _selected(clips if isinstance(clips, ClipJoints) else list(clips), None, "clips", setting)
-    return _jerk_magnitudes(packed, lengths, setting.fps)[0]
+    joints = _clip_joints(clips if isinstance(clips, ClipJoints) else list(clips), None, "clips", setting)
+    return _jerk_magnitudes(_select(joints.positions, setting), joints.lengths, setting.fps)[0]
 
 
 def sjpe(pred_joints, gt_joints, skeleton: str = "t2m", variant: str = "element") -> dict[str, float]:

@@ -299,11 +299,11 @@ def recover_packed_from_ric(features, lengths=None, n_joints: int | None = None)
         root[:, axis] = np.cumsum(grid, axis=1)[clip, t]
     root[:, 1] = root_in[:, 3]
 
-    out = np.empty((frames, j, 3))  # (F, J, 3)
-    out[:, 0] = root
+    out = np.empty((frames, j, 3))  # (F, J, 3), written block by block: one pass over its memory
     ric = rows[:, 4:].reshape(frames, j - 1, 3)  # (F, J-1, 3): facing +Z, x/z relative to the root
     for s in range(0, frames, _CHUNK_FRAMES):
         part = slice(s, s + _CHUNK_FRAMES)
+        out[part, 0] = root[part]
         x, z = _rotate_y(c[part, None], uy[part, None], ric[part, :, 0], ric[part, :, 2])
         out[part, 1:, 0] = x + root[part, None, 0]
         out[part, 1:, 1] = ric[part, :, 1]
