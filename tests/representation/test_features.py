@@ -178,3 +178,17 @@ def test_packed_recovery_rejects_bad_input():
         recover_packed_from_ric([good], n_joints=21)
     with pytest.raises(ValueError, match="empty"):
         recover_packed_from_ric([])
+
+
+def test_packed_recovery_block_by_block_equals_one_block(monkeypatch):
+    import motionlab.representation.features as features_module
+
+    rng = np.random.default_rng(12)
+    clips = [rng.normal(scale=0.2, size=(n, 263)) for n in (5, 1, 37, 12, 8)]
+    whole, _ = features_module.recover_packed_from_ric(clips)
+    monkeypatch.setattr(features_module, "_BLOCK_FRAMES", 10)  # blocks of whole clips: [5, 1], [37], [12], [8]
+    np.testing.assert_array_equal(features_module.recover_packed_from_ric(clips)[0], whole)
+    bad = [c.copy() for c in clips]
+    bad[3][2, 40] = np.inf
+    with pytest.raises(ValueError, match="clip 3"):
+        features_module.recover_packed_from_ric(bad)
