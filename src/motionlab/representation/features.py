@@ -16,7 +16,8 @@ foot_contact          259:263    left ankle, left foot, right ankle, right foot 
 
 :func:`joints_to_features` follows the public HumanML3D processing step by step (retarget to the target
 skeleton, floor at y = 0, root at the origin in frame 0, face +Z in frame 0); :func:`recover_from_ric`
-and :func:`recover_from_rot` invert it.
+and :func:`recover_from_rot` invert it, and :func:`recover_packed_from_ric` does the former for a whole
+clip set at once, on real frames only (what the metrics use, via ``motionlab.metrics.ClipJoints``).
 """
 
 from __future__ import annotations
