@@ -8,13 +8,14 @@ Both networks have their published sizes and random weights (timing does not dep
   1/2/4/8/16 intervals, plus the public code's default (16-point grid = 15 midpoint intervals).
 
 Each clip is 196 frames (49 tokens). The condition projection runs once per clip and the U-Net once per
-network evaluation, exactly as in ``DisCoRDDecoder.sample``. A row's time is the fastest of up to
-``--repeats`` timed calls (fewer once a row has used ``--budget`` seconds), divided by the batch size,
-both as wall time and as process CPU time (the fair measure on a shared machine, best with --threads 1);
-each batch size starts with one untimed warm-up call of each network.
+network evaluation, exactly as in ``DisCoRDDecoder.sample``. Timing follows ``benchmarks/_timing.py``: one
+thread unless ``--threads``, one untimed warm-up call of every row, then ``--repeats`` rounds in which every
+row (the feed-forward decoder and each DisCoRD setting) is timed once, interleaved; a row reports the median
+and min–max per clip of wall and process CPU time, and its ratio to the feed-forward decoder of the same
+round (median and min–max).
 
     .venv/bin/python benchmarks/bench_decode.py                  # table + _build/benchmarks/decode.json
-    .venv/bin/python benchmarks/bench_decode.py --batch-sizes 1 --repeats 5 --threads 2
+    .venv/bin/python benchmarks/bench_decode.py --batch-sizes 1 --repeats 5 --steps 1 2 --threads 2
 """
 
 from __future__ import annotations
@@ -22,11 +23,10 @@ from __future__ import annotations
 import argparse
 import json
 import platform
-import time
-from collections.abc import Callable
 from pathlib import Path
 
 import torch
+from _timing import add_timing_arguments, apply_threads, interleaved, ratio
 from torch import nn
 
 from motionlab.flow import DisCoRDDecoder, discord_config, discord_default_solver, n_evaluations
@@ -36,22 +36,6 @@ REPO = Path(__file__).resolve().parents[1]
 FRAMES = 196
 STEPS = (1, 2, 4, 8, 16)
 SOLVERS = ("euler", "midpoint")
-
-
-def best_seconds(fn: Callable[[], object], repeats: int, budget_s: float) -> tuple[float, float]:
-    """Fastest wall time and fastest process CPU time of up to ``repeats`` calls of ``fn()``.
-
-    Stops early once ``budget_s`` of wall time is spent. The minimum (as ``timeit`` advises) and the CPU
-    time both resist other processes on a shared machine; with one thread, CPU time ≈ compute cost.
-    """
-    walls: list[float] = []
-    cpus: list[float] = []
-    while len(walls) < repeats and (not walls or sum(walls) < budget_s):
-        wall, cpu = time.perf_counter(), time.process_time()
-        fn()
-        walls.append(time.perf_counter() - wall)
-        cpus.append(time.process_time() - cpu)
-    return min(walls), min(cpus)
 
 
 def count_macs(module: nn.Module, *inputs: object) -> int:
@@ -85,12 +69,12 @@ def build_networks(seed: int) -> tuple[Decoder, DisCoRDDecoder]:
 
 
 @torch.inference_mode()
-def run(batch_sizes: list[int], repeats: int, budget_s: float, seed: int) -> dict:
+def run(batch_sizes: list[int], repeats: int, steps: list[int], seed: int) -> dict:
     feed_forward, discord = build_networks(seed)
     cfg = discord.config
     n_tokens = FRAMES // cfg.q
     default = discord_default_solver()
-    settings = [(s, solver) for solver in SOLVERS for s in STEPS] + [(default.steps, default.solver)]
+    settings = [(s, solver) for solver in SOLVERS for s in steps] + [(default.steps, default.solver)]
     # Compute per clip: the projection once, the U-Net once per evaluation (batch 1, MACs scale with B).
     z1 = torch.randn(1, n_tokens, cfg.code_dim, generator=torch.Generator().manual_seed(seed))
     cond = discord.condition(z1)
@@ -103,24 +87,22 @@ def run(batch_sizes: list[int], repeats: int, budget_s: float, seed: int) -> dic
     rows = []
     for batch in batch_sizes:
         z = torch.randn(batch, n_tokens, cfg.code_dim, generator=torch.Generator().manual_seed(seed))
-        feed_forward(z), discord.sample(z, 1, "euler", seed=seed)  # warm-up: allocator, first-call costs
-        ff_wall, ff_cpu = (t / batch for t in best_seconds(lambda z=z: feed_forward(z), repeats, budget_s))
-        rows.append(dict(decoder="feed-forward", solver="-", steps=0, evaluations=1, batch=batch,
-                         wall_s_per_clip=ff_wall, cpu_s_per_clip=ff_cpu, ratio_wall=1.0, ratio_cpu=1.0,
-                         gmac_per_clip=macs["feed_forward"] / 1e9, ratio_macs=1.0))  # fmt: skip
-        for steps, solver in settings:
-            call = lambda z=z, s=steps, m=solver: discord.sample(z, s, m, seed=seed)  # noqa: E731
-            wall, cpu = (t / batch for t in best_seconds(call, repeats, budget_s))
-            nfe = n_evaluations(steps, solver)
-            clip_macs = macs["projection"] + nfe * macs["unet_evaluation"]
-            rows.append(dict(decoder="discord", solver=solver, steps=steps, evaluations=nfe,
-                             batch=batch, wall_s_per_clip=wall, cpu_s_per_clip=cpu,
-                             ratio_wall=wall / ff_wall, ratio_cpu=cpu / ff_cpu,
-                             gmac_per_clip=clip_macs / 1e9, ratio_macs=clip_macs / macs["feed_forward"]))  # fmt: skip
+        calls = {("feed-forward", "-", 0): lambda z=z: feed_forward(z)}
+        for steps_, solver in settings:
+            calls[("discord", solver, steps_)] = lambda z=z, s=steps_, m=solver: discord.sample(z, s, m, seed=seed)
+        timing = interleaved(calls, repeats)  # one warm-up of every row, then rounds of every row
+        base = timing[("feed-forward", "-", 0)]
+        for (decoder, solver, steps_), t in timing.items():
+            nfe = 1 if decoder == "feed-forward" else n_evaluations(steps_, solver)
+            clip_macs = macs["feed_forward"] if decoder == "feed-forward" else (
+                macs["projection"] + nfe * macs["unet_evaluation"])  # fmt: skip
+            per_clip = {k: v / batch for k, v in t.summary().items()}
+            rows.append(dict(decoder=decoder, solver=solver, steps=steps_, evaluations=nfe, batch=batch,
+                             seconds_per_clip=per_clip, ratio=ratio(t, base), gmac_per_clip=clip_macs / 1e9,
+                             ratio_macs=clip_macs / macs["feed_forward"]))  # fmt: skip
     return {
         "frames": FRAMES,
         "repeats": repeats,
-        "budget_s": budget_s,
         "threads": torch.get_num_threads(),
         "torch": torch.__version__,
         "machine": f"{platform.machine()} {platform.processor() or platform.system()}",
@@ -132,34 +114,42 @@ def run(batch_sizes: list[int], repeats: int, budget_s: float, seed: int) -> dic
         "feed_forward_network": "motionlab.tokenizers.encdec.Decoder(width=512, depth=3, code_dim=512)",
         "rows": rows,
         "ratio_2_euler": {
-            str(r["batch"]): {"wall": r["ratio_wall"], "cpu": r["ratio_cpu"], "macs": r["ratio_macs"]}
+            str(r["batch"]): {"wall": r["ratio"]["wall_median"], "cpu": r["ratio"]["cpu_median"],
+                              "macs": r["ratio_macs"]}
             for r in rows
             if r["solver"] == "euler" and r["steps"] == 2
-        },
+        },  # fmt: skip
     }
 
 
 def table(result: dict) -> str:
+    def cell(r: dict, kind: str) -> str:  # "median (min–max)" ms per clip
+        t = r["seconds_per_clip"]
+        return f"{1e3 * t[f'{kind}_median']:.1f} ({1e3 * t[f'{kind}_min']:.1f}–{1e3 * t[f'{kind}_max']:.1f})"
+
+    def times(r: dict, kind: str) -> str:
+        q = r["ratio"]
+        return f"{q[f'{kind}_median']:.2f} ({q[f'{kind}_min']:.2f}–{q[f'{kind}_max']:.2f})"
+
     lines = [
-        f"decode time per clip, {result['frames']} frames, CPU, {result['threads']} threads, torch {result['torch']}",
+        f"decode time per clip, {result['frames']} frames, CPU, {result['threads']} thread(s), torch "
+        f"{result['torch']}; {result['repeats']} interleaved rounds, median (min–max)",
         f"params: feed-forward {result['params']['feed_forward'] / 1e6:.1f} M, "
         f"DisCoRD {result['params']['discord'] / 1e6:.1f} M",
-        f"{'decoder':<13}{'solver':<10}{'steps':>6}{'NFE':>5}{'batch':>6}"
-        f"{'GMAC':>7}{'× FF':>7}{'wall ms/clip':>14}{'× FF':>8}{'cpu ms/clip':>13}{'× FF':>8}",
+        f"{'decoder':<13}{'solver':<10}{'steps':>6}{'NFE':>5}{'batch':>6}{'GMAC':>7}{'× FF':>7}"
+        f"{'cpu ms/clip':>26}{'× FF (cpu)':>24}{'wall ms/clip':>26}{'× FF (wall)':>24}",
     ]
     for r in result["rows"]:
         lines.append(
             f"{r['decoder']:<13}{r['solver']:<10}{r['steps']:>6}{r['evaluations']:>5}{r['batch']:>6}"
             f"{r['gmac_per_clip']:>7.2f}{r['ratio_macs']:>7.2f}"
-            f"{1e3 * r['wall_s_per_clip']:>14.1f}{r['ratio_wall']:>8.2f}"
-            f"{1e3 * r['cpu_s_per_clip']:>13.1f}{r['ratio_cpu']:>8.2f}"
+            f"{cell(r, 'cpu'):>26}{times(r, 'cpu'):>24}{cell(r, 'wall'):>26}{times(r, 'wall'):>24}"
         )
-    for batch, ratio in result["ratio_2_euler"].items():
-        verdict = "within" if ratio["cpu"] <= 3.0 else "NOT within"
+    for batch, ratio_ in result["ratio_2_euler"].items():
+        verdict = "within" if ratio_["cpu"] <= 3.0 else "NOT within"
         lines.append(
-            f"2 Euler steps, batch {batch}: {ratio['wall']:.2f}× (wall) / {ratio['cpu']:.2f}× (cpu) / "
-            f"{ratio['macs']:.2f}× (MACs) the "
-            f"feed-forward decoder ({verdict} the 3× target)"
+            f"2 Euler steps, batch {batch}: {ratio_['wall']:.2f}× (wall) / {ratio_['cpu']:.2f}× (cpu) / "
+            f"{ratio_['macs']:.2f}× (MACs) the feed-forward decoder ({verdict} the 3× target)"
         )
     return "\n".join(lines)
 
@@ -167,15 +157,13 @@ def table(result: dict) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--batch-sizes", type=int, nargs="+", default=[1, 32])
-    parser.add_argument("--repeats", type=int, default=5, help="timed calls per row (at most)")
-    parser.add_argument("--budget", type=float, default=2.0, help="seconds per row after which timing stops")
-    parser.add_argument("--threads", type=int, default=None, help="torch CPU threads (default: torch's choice)")
+    parser.add_argument("--steps", type=int, nargs="+", default=list(STEPS), help="DisCoRD ODE intervals to time")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", type=Path, default=REPO / "_build" / "benchmarks" / "decode.json")
+    add_timing_arguments(parser, repeats=3)
     args = parser.parse_args()
-    if args.threads is not None:
-        torch.set_num_threads(args.threads)
-    result = run(args.batch_sizes, args.repeats, args.budget, args.seed)
+    apply_threads(args.threads)
+    result = run(args.batch_sizes, args.repeats, args.steps, args.seed)
     print(table(result))
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(result, indent=2))

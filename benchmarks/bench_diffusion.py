@@ -7,8 +7,10 @@ Not a test: prints a table and writes JSON. Setting (random weights; timing does
   the extra jump matrices fast sampling caches;
 - sampler: ``transformer_config("laptop")`` denoiser, a batch of 32 texts (16 text tokens of width 256),
   49 tokens each (196 frames / 4), guidance s = 4 (so every step runs a batch of 64), top-p 0.85;
-  ancestral T = 100 steps and fast sampling with fewer jumps. Best of ``--repeats`` runs, wall and
-  process CPU time.
+  ancestral T = 100 steps and fast sampling with fewer jumps. Timing follows ``benchmarks/_timing.py``: one
+  thread unless ``--threads``, a first (untimed, reported) call per step count that also builds its jump
+  matrices, then ``--repeats`` rounds timing every step count once, interleaved; median and min–max of wall
+  and process CPU time, and each step count's per-round speed-up over the first.
 
     .venv/bin/python benchmarks/bench_diffusion.py                       # _build/benchmarks/diffusion.json
     .venv/bin/python benchmarks/bench_diffusion.py --steps 100 10 --threads 1 --repeats 1
@@ -22,22 +24,13 @@ import platform
 import time
 from pathlib import Path
 
+import numpy as np
 import torch
+from _timing import add_timing_arguments, apply_threads, interleaved, ratio, ratio_text, spread
 
 from motionlab.diffusion import DenoisingTransformer, build_transitions, get_schedule, sample, transformer_config
 
 REPO = Path(__file__).resolve().parents[1]
-
-
-def timed(fn, repeats: int) -> tuple[float, float]:
-    """Fastest wall and process-CPU seconds of ``repeats`` calls."""
-    walls, cpus = [], []
-    for _ in range(repeats):
-        wall, cpu = time.perf_counter(), time.process_time()
-        fn()
-        walls.append(time.perf_counter() - wall)
-        cpus.append(time.process_time() - cpu)
-    return min(walls), min(cpus)
 
 
 def main() -> None:
@@ -49,12 +42,10 @@ def main() -> None:
     parser.add_argument("--tokens", type=int, default=49)
     parser.add_argument("--steps", type=int, nargs="+", default=[100, 25, 10])
     parser.add_argument("--guidance", type=float, default=4.0)
-    parser.add_argument("--repeats", type=int, default=2)
-    parser.add_argument("--threads", type=int, default=None)
     parser.add_argument("--device", default="cpu")
+    add_timing_arguments(parser, repeats=3)
     args = parser.parse_args()
-    if args.threads:
-        torch.set_num_threads(args.threads)
+    apply_threads(args.threads)
     K, T, dev = args.codes, args.timesteps, torch.device(args.device)
 
     codebook = torch.randn(K, 64, generator=torch.Generator().manual_seed(0))
@@ -70,20 +61,24 @@ def main() -> None:
     text = torch.randn(args.batch, 16, 256, generator=g).to(dev)
     lengths = [args.tokens] * args.batch
 
-    rows = []
-    for steps in args.steps:
-        def run(steps=steps):
-            out = sample(model, transitions, text, lengths=lengths, generator=torch.Generator().manual_seed(2),
-                         num_steps=steps, guidance_scale=args.guidance, top_p=0.85)  # fmt: skip
-            if dev.type == "cuda":
-                torch.cuda.synchronize()
-            return out
+    def run(steps: int):
+        out = sample(model, transitions, text, lengths=lengths, generator=torch.Generator().manual_seed(2),
+                     num_steps=steps, guidance_scale=args.guidance, top_p=0.85)  # fmt: skip
+        if dev.type == "cuda":
+            torch.cuda.synchronize()
+        return out
 
+    first = {}
+    for steps in args.steps:  # the first call also builds and caches the jump matrices of this grid
         start = time.perf_counter()
-        run()  # warm-up; also builds and caches the jump matrices of this grid
-        first = time.perf_counter() - start
-        wall, cpu = timed(run, args.repeats)
-        rows.append(dict(steps=steps, wall_s=wall, cpu_s=cpu, first_call_s=first, ms_per_step=1e3 * wall / steps))
+        run(steps)
+        first[steps] = time.perf_counter() - start
+    calls = {steps: (lambda s=steps: run(s)) for steps in args.steps}
+    timing = interleaved(calls, args.repeats, warmup=0)  # the first calls above were the warm-up
+    base = timing[args.steps[0]]
+    rows = [dict(steps=steps, first_call_s=first[steps], ms_per_step=1e3 * float(np.median(t.wall)) / steps,
+                 speedup_vs_first=ratio(base, t), **t.summary())
+            for steps, t in timing.items()]  # fmt: skip
 
     cache_bytes = sum(m.numel() * m.element_size() for m in transitions._intervals.values())
     result = dict(
@@ -100,10 +95,12 @@ def main() -> None:
           f"jump cache {cache_bytes / 2**20:.1f} MiB")  # fmt: skip
     print(f"laptop denoiser: {model.num_params / 1e6:.2f} M params; batch {args.batch} x {args.tokens} tokens, "
           f"guidance s={args.guidance} on {result['device']} ({result['threads']} threads)")  # fmt: skip
-    print(f"{'steps':>6} {'wall s':>9} {'cpu s':>9} {'ms/step':>9} {'1st call s':>11}")
+    print(f"{args.repeats} interleaved rounds, median (min–max)")
+    print(f"{'steps':>6} {'wall s':>22} {'cpu s':>22} {'ms/step':>9} {'1st call s':>11} {'× faster (cpu)':>22}")
     for r in rows:
-        print(f"{r['steps']:>6} {r['wall_s']:>9.2f} {r['cpu_s']:>9.2f} {r['ms_per_step']:>9.1f}"
-              f" {r['first_call_s']:>11.2f}")
+        t = timing[r["steps"]]
+        print(f"{r['steps']:>6} {spread(t.wall, digits=2):>22} {spread(t.cpu, digits=2):>22} {r['ms_per_step']:>9.1f}"
+              f" {r['first_call_s']:>11.2f} {ratio_text(r['speedup_vs_first']):>22}")  # fmt: skip
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(result, indent=2))
     print(f"wrote {args.out}")

@@ -6,9 +6,10 @@ Not a test: prints a table and writes JSON. Setting (random weights; timing does
   dynamic β (η = 0.25) on a random (512, 64) codebook;
 - N actions of 40 frames (10 tokens) each, 16 text tokens of width 256 per action, guidance s = 2, top-p 0.85;
 - three samplers on the same inputs: TPS with T_s = 90 (the paper's), independent (T_s = T) and fully
-  joint (T_s = 0). Best of ``--repeats`` runs, wall and process-CPU seconds (the CPU time is the steadier
-  number on a shared machine; use ``--threads 1`` to make it the work done); a least-squares line through
-  (N, seconds) gives the slope per action and R².
+  joint (T_s = 0). Timing follows ``benchmarks/_timing.py``: one thread unless ``--threads``, one warm-up
+  call of each sampler, then ``--repeats`` rounds timing the three interleaved; the medians of wall and
+  process-CPU seconds (min–max in the JSON) feed a least-squares line through (N, seconds): the slope per
+  action and R².
 
     .venv/bin/python benchmarks/bench_tps.py                           # _build/benchmarks/tps.json
     .venv/bin/python benchmarks/bench_tps.py --ns 1 2 4 --steps 10 --repeats 1
@@ -19,29 +20,16 @@ from __future__ import annotations
 import argparse
 import json
 import platform
-import time
 from pathlib import Path
 
 import numpy as np
 import torch
+from _timing import add_timing_arguments, apply_threads, interleaved
 
 from motionlab.diffusion import DenoisingTransformer, build_transitions, get_schedule, transformer_config
 from motionlab.multimotion import two_phase_sample
 
 REPO = Path(__file__).resolve().parents[1]
-
-
-def timed(fn, repeats: int, device: torch.device) -> tuple[float, float]:
-    """Fastest wall and process-CPU seconds of ``repeats`` calls (CPU time is robust to a busy machine)."""
-    walls, cpus = [], []
-    for _ in range(repeats):
-        wall, cpu = time.perf_counter(), time.process_time()
-        fn()
-        if device.type == "cuda":
-            torch.cuda.synchronize()
-        walls.append(time.perf_counter() - wall)
-        cpus.append(time.process_time() - cpu)
-    return min(walls), min(cpus)
 
 
 def linear_fit(ns: list[int], seconds: list[float]) -> dict[str, float]:
@@ -62,12 +50,10 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=None, help="sampling jumps (default: all T)")
     parser.add_argument("--T-s-fraction", type=float, default=0.9)
     parser.add_argument("--guidance", type=float, default=2.0)
-    parser.add_argument("--repeats", type=int, default=2)
-    parser.add_argument("--threads", type=int, default=None)
     parser.add_argument("--device", default="cpu")
+    add_timing_arguments(parser, repeats=3)
     args = parser.parse_args()
-    if args.threads:
-        torch.set_num_threads(args.threads)
+    apply_threads(args.threads)
     K, T, dev = 512, args.timesteps, torch.device(args.device)
     T_s = round(args.T_s_fraction * T)
 
@@ -81,22 +67,27 @@ def main() -> None:
     for n in args.ns:
         text = torch.randn(n, 16, 256, generator=torch.Generator().manual_seed(n)).to(dev)
         row = {"n_actions": n, "frames": n * args.frames, "tokens": n * args.frames // 4}
-        for name, ts in samplers.items():
 
-            def run(ts=ts, text=text, n=n):
-                return two_phase_sample(model, transitions, (text, None), [args.frames] * n, T_s=ts,
-                                        generator=torch.Generator().manual_seed(1), num_steps=args.steps,
-                                        guidance_scale=args.guidance, top_p=0.85)  # fmt: skip
+        def run(ts: int, text=text, n=n):
+            out = two_phase_sample(model, transitions, (text, None), [args.frames] * n, T_s=ts,
+                                   generator=torch.Generator().manual_seed(1), num_steps=args.steps,
+                                   guidance_scale=args.guidance, top_p=0.85)  # fmt: skip
+            if dev.type == "cuda":
+                torch.cuda.synchronize()
+            return out
 
-            run()  # warm-up (allocator, kernels, the interval cache of fast sampling)
-            row[f"{name}_s"], row[f"{name}_cpu_s"] = timed(run, args.repeats, dev)
+        timing = interleaved({name: (lambda ts=ts: run(ts)) for name, ts in samplers.items()}, args.repeats)
+        for name, t in timing.items():
+            row[f"{name}_s"], row[f"{name}_cpu_s"] = float(np.median(t.wall)), float(np.median(t.cpu))
+            row[f"{name}_spread"] = t.summary()
         rows.append(row)
         print(f"N={n:3d}  " + "  ".join(f"{k}={row[f'{k}_s']:.3f}s (cpu {row[f'{k}_cpu_s']:.3f}s)" for k in samplers),
               flush=True)  # fmt: skip
 
     fits = {f"{name}{kind}": linear_fit(args.ns, [r[f"{name}{kind}"] for r in rows])
             for name in samplers for kind in ("_s", "_cpu_s")}  # fmt: skip
-    print(f"\n{'N':>4} {'frames':>7} " + " ".join(f"{k + ' wall/cpu (s)':>24}" for k in samplers))
+    print(f"\nmedians of {args.repeats} interleaved rounds")
+    print(f"{'N':>4} {'frames':>7} " + " ".join(f"{k + ' wall/cpu (s)':>24}" for k in samplers))
     for r in rows:
         cells = [f"{r[f'{k}_s']:.3f} / {r[f'{k}_cpu_s']:.3f}" for k in samplers]
         print(f"{r['n_actions']:>4} {r['frames']:>7} " + " ".join(f"{c:>24}" for c in cells))

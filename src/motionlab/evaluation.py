@@ -469,6 +469,7 @@ def evaluate_reconstruction(dataset, config: ReconstructionConfig | None = None,
     the DisCoRD row repeats ``config.repeats`` times, repeat r decoding from seed ``repeat_seed(seed, r)``.
     """
     from motionlab.flow.reconstruction import decode_clips, reconstruction_scores
+    from motionlab.metrics import ClipJoints
     from motionlab.metrics.evaluator_training import load_or_train_evaluator
     from motionlab.tokenizers import tokenizer_for_dataset
 
@@ -484,10 +485,11 @@ def evaluate_reconstruction(dataset, config: ReconstructionConfig | None = None,
     normalized = [normalizer.normalize(c.features) for c in clips]  # (T_i, D) each, what the tokenizer reads
     gt = [c.features[: len(c.features) // q * q] for c in clips]  # raw, whole tokens
     gt_embeddings = evaluator.embed_motions(gt)  # (N, d), shared by every row's FID
+    gt_joints = ClipJoints.from_features(gt)  # recovered once, shared by every row's MPJPE and sJPE
 
     def score(recon: list[np.ndarray]) -> dict[str, float]:
         raw = [normalizer.denormalize(r) for r in recon]
-        return reconstruction_scores(raw, gt, evaluator.embed_motions, gt_embeddings).as_dict()
+        return reconstruction_scores(raw, gt, evaluator.embed_motions, gt_embeddings, gt_joints).as_dict()
 
     name = "VQ-VAE" if kind == "vq" else "RVQ-VAE"
     feed_forward = f"{name} decoder"

@@ -246,3 +246,42 @@ def test_load_official_evaluator_checks_the_feature_size(tmp_path):
     write_official_layout(tmp_path, "t2m", kit_model)  # a KIT-sized network where t2m is expected
     with pytest.raises(ValueError, match="251-d features"):
         load_official_evaluator(tmp_path, tmp_path)
+
+
+def test_motion_embedding_does_not_depend_on_the_callers_padding():
+    # The movement encoder's last step for a clip of L frames reads frames L-1 .. L+2: a batch padded to
+    # only L or L+1 frames used to replace that step's input by the convolution's zero padding.
+    model = tiny_model(3)
+    clip = torch.randn(40, TINY.dim_pose, generator=torch.Generator().manual_seed(4))
+
+    def embed(padded_to: int, fill: float = 0.0, length: int = 36) -> torch.Tensor:
+        x = torch.full((1, padded_to, TINY.dim_pose), fill)
+        x[0, :length] = clip[:length]
+        with torch.no_grad():
+            return model.encode_motion(x, torch.tensor([length]))[0]
+
+    official = embed(196)
+    for padded_to in (36, 37, 38, 50):
+        torch.testing.assert_close(embed(padded_to), official, rtol=0, atol=1e-6)
+    torch.testing.assert_close(embed(40, fill=float("nan")), official, rtol=0, atol=1e-6)  # padding is never read
+    # a length that is not a multiple of 4 is cropped the official way: its first floor(L/4)*4 frames
+    for length in (37, 38, 39):
+        torch.testing.assert_close(embed(196, length=length, fill=7.0), embed(36, length=36), rtol=0, atol=1e-6)
+    # in a batch: the short clip's embedding is the same beside a longer one and alone
+    batch = torch.zeros(2, 60, TINY.dim_pose)
+    batch[0, :36] = clip[:36]
+    batch[1] = torch.randn(60, TINY.dim_pose, generator=torch.Generator().manual_seed(5))
+    with torch.no_grad():
+        together = model.encode_motion(batch, torch.tensor([36, 60]))
+    torch.testing.assert_close(together[0], official, rtol=0, atol=1e-6)
+
+
+def test_official_motion_batch_crops_zeroes_and_pads():
+    from motionlab.metrics.evaluator import official_motion_batch
+
+    x = torch.ones(2, 10, 3)
+    out, lengths = official_motion_batch(x, torch.tensor([10, 7]))
+    assert lengths.tolist() == [8, 4] and out.shape == (2, 10, 3)  # max(8, 4) + 2 frames
+    assert out[0, :8].eq(1).all() and out[0, 8:].eq(0).all() and out[1, :4].eq(1).all() and out[1, 4:].eq(0).all()
+    out, _ = official_motion_batch(torch.ones(1, 196, 3), torch.tensor([40]))
+    assert out.shape == (1, 42, 3)  # the official 196 frames of padding, cut to what the encoder reads

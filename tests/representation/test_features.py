@@ -139,3 +139,56 @@ def test_real_clip_features_match_public_processing(shared_data):
     assert err["root_rot_vel"] < 1e-3 and err["root_lin_vel"] < 1e-3 and err["local_vel"] < 1e-3
     assert err["foot_contact"] == 0
     assert np.abs(ours[:, s["rot"]] - shipped[:, s["rot"]]).mean() < 1e-3
+
+
+@pytest.mark.parametrize("skeleton", [T2M, KIT])
+def test_packed_recovery_equals_recover_from_ric_clip_by_clip(skeleton):
+    from motionlab.representation.features import recover_packed_from_ric
+
+    rng = np.random.default_rng(11)
+    clips = [rng.normal(scale=0.2, size=(n, skeleton.feature_dim)) for n in (5, 1, 37, 12)]
+    expected = np.concatenate([recover_from_ric(c) for c in clips])  # float64, frame by frame
+    packed, lengths = recover_packed_from_ric(clips)
+    assert packed.shape == (55, skeleton.n_joints, 3) and packed.flags.c_contiguous
+    assert lengths.tolist() == [5, 1, 37, 12]
+    np.testing.assert_allclose(packed, expected, rtol=0, atol=1e-12)
+    # the same clips padded, with NaN in the padding (never read) and as float32 tensors
+    padded = np.full((4, 40, skeleton.feature_dim), np.nan)
+    for i, c in enumerate(clips):
+        padded[i, : len(c)] = c
+    np.testing.assert_array_equal(recover_packed_from_ric(padded, lengths)[0], packed)
+    as_float32 = recover_packed_from_ric([torch.from_numpy(c).float() for c in clips])[0]
+    assert as_float32.dtype == np.float64
+    np.testing.assert_allclose(as_float32, recover_packed_from_ric([c.astype(np.float32) for c in clips])[0])
+
+
+def test_packed_recovery_rejects_bad_input():
+    from motionlab.representation.features import recover_packed_from_ric
+
+    good = np.zeros((6, 263))
+    bad = good.copy()
+    bad[4, 10] = np.nan
+    with pytest.raises(ValueError, match="clip 1"):
+        recover_packed_from_ric([good, bad])
+    with pytest.raises(ValueError, match="lengths"):
+        recover_packed_from_ric(np.zeros((2, 6, 263)), [6, 7])
+    with pytest.raises(ValueError, match="lengths is only used"):
+        recover_packed_from_ric([good], [6])
+    with pytest.raises(ValueError, match="22 joints"):
+        recover_packed_from_ric([good], n_joints=21)
+    with pytest.raises(ValueError, match="empty"):
+        recover_packed_from_ric([])
+
+
+def test_packed_recovery_block_by_block_equals_one_block(monkeypatch):
+    import motionlab.representation.features as features_module
+
+    rng = np.random.default_rng(12)
+    clips = [rng.normal(scale=0.2, size=(n, 263)) for n in (5, 1, 37, 12, 8)]
+    whole, _ = features_module.recover_packed_from_ric(clips)
+    monkeypatch.setattr(features_module, "_BLOCK_FRAMES", 10)  # blocks of whole clips: [5, 1], [37], [12], [8]
+    np.testing.assert_array_equal(features_module.recover_packed_from_ric(clips)[0], whole)
+    bad = [c.copy() for c in clips]
+    bad[3][2, 40] = np.inf
+    with pytest.raises(ValueError, match="clip 3"):
+        features_module.recover_packed_from_ric(bad)

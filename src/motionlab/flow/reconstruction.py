@@ -20,8 +20,8 @@ from typing import Any
 import numpy as np
 import torch
 
-from motionlab.metrics import fid, mpjpe, sjpe_variants
-from motionlab.representation import get_skeleton, recover_from_ric
+from motionlab.metrics import ClipJoints, fid, mpjpe, sjpe_variants
+from motionlab.representation import get_skeleton
 
 SKELETON_OF_DIM = {263: "t2m", 251: "kit"}
 
@@ -108,11 +108,14 @@ class ReconstructionScores:
 
 def joints_of(features: Sequence[np.ndarray]) -> list[np.ndarray]:
     """Raw (de-normalised) features ``(T, D)`` → joint positions ``(T, J, 3)`` in the skeleton's unit."""
+    return _clip_joints(features).clips()
+
+
+def _clip_joints(features: Sequence[np.ndarray]) -> ClipJoints:
     dim = int(np.asarray(features[0]).shape[-1])
     if dim not in SKELETON_OF_DIM:
         raise ValueError(f"features must have {sorted(SKELETON_OF_DIM)} dims (t2m / kit), got {dim}")
-    n_joints = get_skeleton(SKELETON_OF_DIM[dim]).n_joints
-    return [np.asarray(recover_from_ric(np.asarray(f, dtype=np.float64), n_joints)) for f in features]
+    return ClipJoints.from_features(list(features))
 
 
 def reconstruction_scores(
@@ -120,13 +123,15 @@ def reconstruction_scores(
     gt_features: Sequence[np.ndarray],
     embed: Callable[[list[np.ndarray]], np.ndarray] | None = None,
     gt_embeddings: np.ndarray | None = None,
+    gt_joints: ClipJoints | None = None,
 ) -> ReconstructionScores:
     """Score reconstructions against their ground truth; both are lists of raw ``(T_i, D)`` features.
 
     ``embed`` (e.g. an evaluator's ``embed_motions``) maps raw clips to ``(N, d)`` embeddings for FID;
-    pass ``gt_embeddings`` to reuse the ground truth's. Without ``embed`` the FID is NaN.
-    MPJPE pools every pose (pelvis-aligned, millimetres); sJPE is the mean over clips, in both of the
-    public code's variants (element, and ratio: the paper's [0, 1] scale). Joints are recovered once.
+    pass ``gt_embeddings`` to reuse the ground truth's, and ``gt_joints`` (``ClipJoints.from_features(gt)``)
+    to reuse its joints. Without ``embed`` the FID is NaN. MPJPE pools every pose (pelvis-aligned,
+    millimetres); sJPE is the mean over clips, in both of the public code's variants (element, and ratio:
+    the paper's [0, 1] scale). Joints are recovered once per clip set, on real frames only.
     """
     if len(pred_features) != len(gt_features) or len(pred_features) == 0:
         raise ValueError(f"need equal, non-zero numbers of clips, got {len(pred_features)} and {len(gt_features)}")
@@ -134,7 +139,10 @@ def reconstruction_scores(
         if np.shape(p) != np.shape(g):
             raise ValueError(f"clip {i}: prediction {np.shape(p)} and ground truth {np.shape(g)} differ in shape")
     skeleton = SKELETON_OF_DIM.get(int(np.shape(gt_features[0])[-1]), "t2m")
-    pred_joints, gt_joints = joints_of(pred_features), joints_of(gt_features)
+    pred_joints = _clip_joints(pred_features)
+    gt_joints = _clip_joints(gt_features) if gt_joints is None else gt_joints
+    if not np.array_equal(gt_joints.lengths, pred_joints.lengths):
+        raise ValueError("gt_joints are not the joints of gt_features: their clip lengths differ")
     to_mm = 1000.0 * get_skeleton(skeleton).meters_per_unit
     scored = sjpe_variants(pred_joints, gt_joints, skeleton)  # jerks computed once, both variants scored
     jerk, ratio = scored["element"], scored["ratio"]
@@ -144,8 +152,8 @@ def reconstruction_scores(
         reference = gt_embeddings if gt_embeddings is not None else embed(list(gt_features))
         distance = fid(reference, embed(list(pred_features)))
     mean_jerk = float(np.mean(jerk.jerk_pred_per_clip))
-    return ReconstructionScores(distance, to_mm * mpjpe(pred_joints, gt_joints), jerk.sjpe, jerk.noise, jerk.static,
-                                ratio.sjpe, ratio.noise, ratio.static, mean_jerk)  # fmt: skip
+    return ReconstructionScores(distance, to_mm * mpjpe(pred_joints, gt_joints), jerk.sjpe,
+                                jerk.noise, jerk.static, ratio.sjpe, ratio.noise, ratio.static, mean_jerk)  # fmt: skip
 
 
 # ----------------------------------------------------------------------------- timing

@@ -1,5 +1,6 @@
-"""Metrics: jerk, sJPE and LDLJ; MPJPE; FID, Diversity, MultiModality; R-precision and MM-Dist; the
-text-motion evaluator that embeds texts and motions; and the mean +- 95% CI reporting protocol."""
+"""Metrics: the joints of a clip set, recovered once (ClipJoints); jerk, sJPE and LDLJ; MPJPE; FID, Diversity,
+MultiModality; R-precision and MM-Dist; the text-motion evaluator that embeds texts and motions; and the
+mean +- 95% CI reporting protocol."""
 
 from .distribution import diversity, fid, frechet_distance, gaussian_stats, multimodality
 from .evaluator import (
@@ -15,6 +16,7 @@ from .evaluator import (
 )
 from .jerk import (
     boundaries_from_lengths,
+    clip_log_jerk,
     dimensionless_jerk,
     finite_difference_jerk,
     ldlj_from_log_jerk,
@@ -24,6 +26,7 @@ from .jerk import (
     transition_log_jerk,
     transition_windows,
 )
+from .joints import ClipJoints
 from .mpjpe import mpjpe
 from .official import OfficialEvaluator, load_official_evaluator, official_paths
 from .protocol import Estimate, mean_ci, summarize_runs
@@ -50,7 +53,8 @@ from .words import (
 )
 
 __all__ = [
-    "OFFICIAL_PARTS", "POS_CATEGORIES", "SJPE_JOINTS", "VIP_WORDS", "CaptionVocabulary", "ContrastiveLosses",
+    "OFFICIAL_PARTS", "POS_CATEGORIES", "SJPE_JOINTS", "VIP_WORDS", "CaptionVocabulary", "ClipJoints",
+    "ContrastiveLosses", "clip_log_jerk",
     "EncodedCaptions", "Estimate", "EvaluatorConfig", "LearnedWordEmbedding", "MotionEncoderBiGRUCo",
     "MovementConvEncoder", "OfficialEvaluator", "RetrievalScores", "SJPEResult", "TextEncoderBiGRUCo",
     "TextMotionEvaluator", "WordVectorizer", "boundaries_from_lengths", "contrastive_loss",

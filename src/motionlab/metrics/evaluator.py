@@ -148,9 +148,9 @@ class MotionEncoderBiGRUCo(_BiGRUEncoder):
 class TextMotionEvaluator(nn.Module):
     """The three networks together; every method returns embeddings in the caller's order.
 
-    Motions must be normalised with the *evaluator's* mean/std and zero-padded past their length (the
-    convolutions see a few padded frames at the end of each clip, exactly as in the official setting).
-    Call ``.eval()`` before measuring: the movement encoder has dropout.
+    Motions must be normalised with the *evaluator's* mean/std; how they are padded does not matter
+    (:func:`official_motion_batch` crops, zeroes and pads each batch the official way). Call ``.eval()``
+    before measuring: the movement encoder has dropout.
     """
 
     def __init__(self, config: EvaluatorConfig | None = None, generator: torch.Generator | None = None):
@@ -175,7 +175,11 @@ class TextMotionEvaluator(nn.Module):
     def encode_motion(self, motions: torch.Tensor, lengths: torch.Tensor) -> torch.Tensor:
         """Normalised features ``(B, T, dim_pose)`` and lengths in frames ``(B,)`` -> ``(B, dim_coemb)``.
 
-        The four foot-contact channels are dropped; the GRU runs over ``lengths // 4`` movement steps.
+        A clip's embedding depends on its first ``lengths[i]`` frames only, never on how the caller padded it:
+        the input is brought to the official pipeline's form here (:func:`official_motion_batch`: crop each
+        clip to a whole number of ``unit_length`` steps, zero the rest, pad with zeros to two frames past
+        the longest clip). The four foot-contact channels are dropped; the GRU runs over ``lengths // 4``
+        movement steps.
         """
         c = self.config
         if motions.dim() != 3 or motions.shape[-1] != c.dim_pose:
@@ -183,7 +187,8 @@ class TextMotionEvaluator(nn.Module):
         lengths = _check_lengths(lengths, motions.shape[0], motions.shape[1], "lengths")
         if (lengths < c.unit_length).any():
             raise ValueError(f"every motion needs at least unit_length={c.unit_length} frames")
-        movements = self.movement_encoder(motions[..., :-4].float())  # (B, T/4, latent)
+        motions, lengths = official_motion_batch(motions, lengths, c.unit_length)
+        movements = self.movement_encoder(motions[..., :-4].float())  # (B, T'/4, latent)
         return self.motion_encoder(movements, lengths // c.unit_length)
 
     def forward(self, words, pos_onehot, text_lengths, motions, motion_lengths) -> tuple[torch.Tensor, torch.Tensor]:
@@ -203,6 +208,29 @@ class TextMotionEvaluator(nn.Module):
 
 
 OFFICIAL_PARTS = ("text_encoder", "motion_encoder", "movement_encoder")
+
+
+def official_motion_batch(motions: torch.Tensor, lengths: torch.Tensor, unit_length: int = 4):
+    """A padded batch ``(B, T, D)`` as the official evaluation feeds it to the motion encoder, and its lengths.
+
+    - Each length is floored to a multiple of ``unit_length``, as the official loaders floor every clip
+      (they also draw a random start for that crop; here a clip keeps its first frames, so its embedding is
+      a function of the clip). The GRU reads ``length // unit_length`` steps either way, but the last step's
+      convolutions would otherwise see the up to 3 frames past the floor.
+    - Every frame past a clip's (floored) length becomes 0: the official padding, in normalised space.
+    - The time axis becomes ``max(length) + 2`` frames. The movement encoder's last step for a clip of
+      ``L`` frames reads frames ``L - 1 .. L + 2``; with fewer than ``L + 2`` frames in the batch the first
+      convolution has no output there and the second one's zero padding takes its place (the embedding
+      then differs from the official one by up to 9 % relative L2). Two zero frames suffice: padding to the
+      official 196 gives the same embedding, only slower.
+    """
+    lengths = lengths // unit_length * unit_length  # (B,)
+    frames = int(lengths.max()) + 2
+    if motions.shape[1] < frames:
+        motions = torch.nn.functional.pad(motions, (0, 0, 0, frames - motions.shape[1]))
+    motions = motions[:, :frames]
+    keep = torch.arange(frames, device=motions.device) < lengths.to(motions.device)[:, None]  # (B, T')
+    return torch.where(keep[..., None], motions, torch.zeros((), dtype=motions.dtype, device=motions.device)), lengths
 
 
 def _check_lengths(lengths, batch: int, max_len: int, name: str) -> torch.Tensor:

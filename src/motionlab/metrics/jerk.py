@@ -22,6 +22,7 @@ import numpy as np
 import torch
 
 from ._checks import as_float_array, check_joints
+from .joints import ClipJoints
 
 TIME_UNITS = ("frames", "seconds")
 
@@ -47,6 +48,13 @@ def finite_difference_jerk(positions, fps: float, axis: int = -3):
     return np.diff(arr, n=3, axis=axis) * fps**3
 
 
+def squared_length(v: np.ndarray) -> np.ndarray:
+    """``x² + y² + z²`` of vectors ``(..., 3)`` -> ``(...)``: ``np.linalg.norm(v, axis=-1) ** 2`` without numpy's
+    slow reduction over an axis of three (the sums run in the same order, so ``sqrt`` of it equals ``norm``)."""
+    x, y, z = v[..., 0], v[..., 1], v[..., 2]
+    return x * x + y * y + z * z
+
+
 def _time_step(time_unit: str, fps: float) -> float:
     if time_unit not in TIME_UNITS:
         raise ValueError(f"time_unit must be one of {TIME_UNITS}, got {time_unit!r}")
@@ -58,9 +66,9 @@ def _time_step(time_unit: str, fps: float) -> float:
 def _per_joint_log_jerk(windows: np.ndarray, dt: float) -> np.ndarray:
     """ln( sum_t ||j_t||^2 dt / v_peak^2 ) for windows ``(..., W, J, 3)`` -> ``(..., J)``; NaN where static."""
     jerk = finite_difference_jerk(windows, 1.0 / dt, axis=-3)  # (..., W-3, J, 3)
-    speed = np.linalg.norm(np.diff(windows, axis=-3), axis=-1) / dt  # (..., W-1, J)
+    speed = np.sqrt(squared_length(np.diff(windows, axis=-3))) / dt  # (..., W-1, J)
     v_peak = speed.max(axis=-2)  # (..., J)
-    energy = (jerk**2).sum(axis=(-3, -1)) * dt  # (..., J): the integral of ||da/dt||^2
+    energy = squared_length(jerk).sum(axis=-2) * dt  # (..., J): the integral of ||da/dt||^2
     with np.errstate(divide="ignore", invalid="ignore"):
         out = np.log(energy / v_peak**2)
     out[v_peak == 0] = np.nan  # a perfectly still joint has no defined smoothness
@@ -152,10 +160,50 @@ def log_jerk_batch(windows, time_unit: str = "frames", fps: float = 20.0) -> np.
     w = as_float_array(windows, "windows")
     if w.ndim != 4 or w.shape[-1] != 3 or w.shape[1] < 4:
         raise ValueError(f"windows must have shape (N, W>=4, J, 3), got {w.shape}")
-    per_joint = _per_joint_log_jerk(w, dt)  # (N, J)
+    return _mean_over_joints(_per_joint_log_jerk(w, dt))
+
+
+def _mean_over_joints(per_joint: np.ndarray) -> np.ndarray:
+    """``(N, J)`` -> ``(N,)``: the mean over the joints that move, NaN where none does."""
     counts = (~np.isnan(per_joint)).sum(axis=1)
     with np.errstate(invalid="ignore"):
         return np.where(counts > 0, np.nansum(per_joint, axis=1) / np.maximum(counts, 1), np.nan)
+
+
+_WINDOW_BLOCK = 64  # windows gathered at a time: the (block, W, J, 3) copy and its temporaries stay in cache
+
+
+def clip_log_jerk(
+    joints: ClipJoints, boundaries: Sequence[int] | None = None, window: int = 40, time_unit: str = "frames",
+    fps: float = 20.0,
+) -> np.ndarray:  # fmt: skip
+    """Eq. 10 around one boundary of every clip of a set ``(N,)``, without a loop over clips.
+
+    ``boundaries[i]`` (default: each clip's middle frame, ``T_i // 2``) is a frame strictly inside clip ``i``;
+    its window is :func:`transition_windows`' (``window`` frames, shifted inside the clip; the whole clip if
+    it has no more than ``window`` frames), so value ``i`` equals ``transition_log_jerk(clip_i, [b_i],
+    window)[0]``. Windows of equal length are gathered from the packed joints and scored together. The
+    LDLJ of the same windows is ``ldlj_from_log_jerk(values, np.minimum(joints.lengths, window))``.
+    """
+    dt = _time_step(time_unit, fps)
+    if window < 4:
+        raise ValueError(f"window must be at least 4 frames (a third difference), got {window}")
+    n = joints.lengths
+    if (n < 4).any():
+        raise ValueError(f"clip {int(np.argmax(n < 4))} has fewer than 4 frames")
+    b = n // 2 if boundaries is None else np.asarray(boundaries, np.int64)
+    if b.shape != n.shape or (b <= 0).any() or (b >= n).any():
+        raise ValueError(f"boundaries must be {len(n)} frames, each strictly inside its clip")
+    size = np.minimum(n, window)  # (N,) frames of each window
+    first = joints.starts + np.clip(b - window // 2, 0, n - size)  # (N,) the window's first row in positions
+    out = np.empty(len(n))
+    for w in np.unique(size):
+        chosen = np.flatnonzero(size == w)
+        for s in range(0, len(chosen), _WINDOW_BLOCK):
+            part = chosen[s : s + _WINDOW_BLOCK]
+            windows = joints.positions[first[part, None] + np.arange(w)]  # (M, w, J, 3)
+            out[part] = _mean_over_joints(_per_joint_log_jerk(windows, dt))
+    return out
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -193,7 +241,7 @@ def log_dimensionless_jerk(speed, fs: float) -> float:
     return float(-np.log(abs(dimensionless_jerk(speed, fs))))
 
 
-def ldlj_from_log_jerk(value: float, n_frames: int, time_unit: str = "frames", fps: float = 20.0) -> float:
+def ldlj_from_log_jerk(value, n_frames, time_unit: str = "frames", fps: float = 20.0):
     """Turn an Eq. 10 value of a ``n_frames`` window into the LDLJ of the same signal.
 
     Eq. 10 is ``E = ln(integral ||j||^2 dt / v_peak^2)`` with no duration factor and no minus sign, while
@@ -206,8 +254,13 @@ def ldlj_from_log_jerk(value: float, n_frames: int, time_unit: str = "frames", f
     seconds and ``3 ln D`` shrinks by the same amount. For one joint whose velocity keeps its direction,
     the speed's second difference equals the vector jerk and the identity is exact; Eq. 10 (averaged
     over joints) is therefore "minus LDLJ, without the duration term, of each joint's 3-D path".
+    ``value`` and ``n_frames`` may be arrays (e.g. from :func:`clip_log_jerk`): the result is then an array.
     """
     dt = _time_step(time_unit, fps)
-    if int(n_frames) < 4:
+    frames = np.asarray(n_frames)
+    if not np.issubdtype(frames.dtype, np.integer) and not np.all(frames == np.round(frames)):
+        raise ValueError(f"n_frames must be whole numbers, got {n_frames}")
+    if (frames < 4).any():
         raise ValueError(f"n_frames must be at least 4, got {n_frames}")
-    return float(-value - 3.0 * np.log((int(n_frames) - 1) * dt))
+    out = -np.asarray(value, dtype=np.float64) - 3.0 * np.log((frames.astype(np.int64) - 1) * dt)
+    return float(out) if out.ndim == 0 else out

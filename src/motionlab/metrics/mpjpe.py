@@ -7,26 +7,38 @@ from collections.abc import Sequence
 import numpy as np
 
 from ._checks import as_float_array
+from .jerk import squared_length
+from .joints import ClipJoints
 
 
 def mpjpe(pred_joints, gt_joints) -> float:
     """``mean_{t,j} || (P[t,j] - P[t,0]) - (G[t,j] - G[t,0]) ||_2`` in the input's unit.
 
     ``pred_joints``/``gt_joints``: arrays ``(..., J, 3)`` of the same shape (one clip ``(T, J, 3)`` or a
-    batch), or equal-length lists of clips whose poses are pooled (every pose weighs the same, as in
-    DisCoRD's "MAE"). Joint 0 is the pelvis: subtracting it removes the global trajectory.
+    batch), equal-length lists of clips whose poses are pooled (every pose weighs the same, as in
+    DisCoRD's "MAE"), or two :class:`ClipJoints` of the same clips (pooled likewise, without a copy).
+    Joint 0 is the pelvis: subtracting it removes the global trajectory.
     """
     pred, gt = _pool(pred_joints, "pred_joints"), _pool(gt_joints, "gt_joints")
     if pred.shape != gt.shape:
         raise ValueError(f"pred_joints {pred.shape} and gt_joints {gt.shape} must have the same shape")
     if pred.ndim < 2 or pred.shape[-1] != 3:
         raise ValueError(f"joints must have shape (..., J, 3), got {pred.shape}")
-    pred = pred - pred[..., :1, :]
-    gt = gt - gt[..., :1, :]
-    return float(np.linalg.norm(pred - gt, axis=-1).mean())
+    pred, gt = pred.reshape(-1, *pred.shape[-2:]), gt.reshape(-1, *gt.shape[-2:])  # (P, J, 3): poses
+    total = 0.0
+    for s in range(0, len(pred), _BLOCK_POSES):  # a cache-sized block at a time: one pass over memory
+        error = pred[s : s + _BLOCK_POSES] - gt[s : s + _BLOCK_POSES]  # (B, J, 3)
+        error -= error[:, :1]  # aligning both pelvises = subtracting the pelvis's error
+        total += np.sqrt(squared_length(error)).sum()
+    return float(total / (pred.shape[0] * pred.shape[1]))
+
+
+_BLOCK_POSES = 2048
 
 
 def _pool(x, name: str) -> np.ndarray:
+    if isinstance(x, ClipJoints):
+        return x.positions  # finite float64 by construction
     if isinstance(x, Sequence) and not isinstance(x, np.ndarray) and len(x) and np.ndim(x[0]) == 3:
         return np.concatenate([as_float_array(c, f"{name}[{i}]") for i, c in enumerate(x)], axis=0)
     return as_float_array(x, name)

@@ -69,14 +69,15 @@ class OfficialEvaluator:
 
     @torch.no_grad()
     def embed_motions(self, features, lengths) -> torch.Tensor:
-        """*Raw* features ``(B, T, D)`` (normalised here; frames past ``lengths`` are zeroed) -> ``(B, 512)``."""
+        """*Raw* features ``(B, T, D)`` padded any way (normalised here) and lengths ``(B,)`` -> ``(B, 512)``.
+
+        The padding never matters: a clip's embedding is that of its first ``lengths[i] // 4 * 4`` frames,
+        zero-padded the official way (:func:`~motionlab.metrics.evaluator.official_motion_batch`)."""
         x = torch.as_tensor(features, dtype=torch.float32, device=self._device())
         if x.dim() != 3:
             raise ValueError(f"features must have shape (B, T, D), got {tuple(x.shape)}")
-        x = self.normalizer.normalize(x)
         lengths = _check_lengths(lengths, x.shape[0], x.shape[1], "lengths")
-        valid = torch.arange(x.shape[1]) < lengths.reshape(-1, 1)  # (B, T): zero padding, as the data has it
-        return self.model.encode_motion(x * valid[..., None].to(x.device), lengths)
+        return self.model.encode_motion(self.normalizer.normalize(x), lengths)
 
     def _device(self) -> torch.device:
         return next(self.model.parameters()).device

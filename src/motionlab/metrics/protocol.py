@@ -14,7 +14,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
+from scipy.special import stdtrit  # Student's t quantile; scipy.stats would cost ~1 s of import
 
 from ._checks import as_float_array
 
@@ -35,7 +35,7 @@ def mean_ci(values: Sequence[float], method: str = "t") -> tuple[float, float]:
         return float(v[0]), 0.0
     if method == "normal":
         return float(v.mean()), float(1.96 * v.std() / np.sqrt(v.size))
-    return float(v.mean()), float(stats.t.ppf(0.975, v.size - 1) * v.std(ddof=1) / np.sqrt(v.size))
+    return float(v.mean()), float(stdtrit(v.size - 1, 0.975) * v.std(ddof=1) / np.sqrt(v.size))
 
 
 @dataclass(frozen=True)

@@ -30,9 +30,10 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from ..representation import get_skeleton, recover_from_ric
-from ._checks import as_float_array, check_joints
-from .jerk import finite_difference_jerk
+from ..representation import get_skeleton
+from ._checks import check_joints
+from .jerk import finite_difference_jerk, squared_length
+from .joints import ClipJoints
 
 SJPE_JOINTS = {"t2m": (10, 11, 20, 21), "kit": (7, 10)}
 VARIANTS = ("element", "ratio")
@@ -86,21 +87,29 @@ class SJPEResult:
         return {"sjpe": self.sjpe, "noise": self.noise, "static": self.static}
 
 
-def _jerk_magnitudes(clips: Sequence[np.ndarray], fps: float) -> tuple[np.ndarray, np.ndarray]:
-    """``|jerk|`` of all clips stacked ``(sum_i (T_i - 3), n_sel)`` and each row's clip id.
+def _jerk_magnitudes(packed: np.ndarray, lengths: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray]:
+    """``|jerk|`` of packed clips ``(F, n_sel, 3)`` (clip after clip, ``lengths`` frames each):
+    ``(sum_i (T_i - 3), n_sel)`` and each row's clip id.
 
-    ``clips`` hold only the selected joints, in metres. They are concatenated and differenced once; rows
-    whose 4-frame stencil crosses from one clip into the next are dropped, so nothing of a neighbour (or
-    of padding) leaks into a clip's score.
+    The packed array is differenced once; rows whose 4-frame stencil crosses from one clip into the next
+    are dropped, so nothing of a neighbour (or of padding) leaks into a clip's score.
     """
-    lengths = np.array([c.shape[0] for c in clips])
-    jerk = np.linalg.norm(finite_difference_jerk(np.concatenate(clips), fps, axis=0), axis=-1)  # (sum T - 3, n)
-    starts = np.concatenate(([0], np.cumsum(lengths)[:-1]))
+    jerk = np.sqrt(squared_length(finite_difference_jerk(packed, fps, axis=0)))  # (F - 3, n_sel)
+    starts = np.cumsum(lengths) - lengths
     n_rows = lengths - 3
-    clip_id = np.repeat(np.arange(len(clips)), n_rows)
+    clip_id = np.repeat(np.arange(len(lengths)), n_rows)
     offset_in_clip = np.arange(n_rows.sum()) - np.repeat(np.cumsum(n_rows) - n_rows, n_rows)
     rows = np.repeat(starts, n_rows) + offset_in_clip
     return jerk[rows], clip_id
+
+
+def _row_sums(values: np.ndarray) -> np.ndarray:
+    """``values.sum(axis=1)`` of ``(R, n)`` for a handful of columns, added in the same order, without numpy's
+    slow reduction over a short axis."""
+    out = values[:, 0].copy()
+    for k in range(1, values.shape[1]):
+        out += values[:, k]
+    return out
 
 
 def _score(jp: np.ndarray, jg: np.ndarray, clip_id: np.ndarray, n_clips: int, variant: str):
@@ -109,7 +118,7 @@ def _score(jp: np.ndarray, jg: np.ndarray, clip_id: np.ndarray, n_clips: int, va
     under = np.maximum(jg - jp, 0.0)  # (R, n): jerk the prediction misses
 
     def per_clip(values: np.ndarray) -> np.ndarray:  # (R, n) -> (n_clips,), summed over joints and time
-        return np.bincount(clip_id, weights=values.sum(axis=1), minlength=n_clips)
+        return np.bincount(clip_id, weights=_row_sums(values), minlength=n_clips)
 
     if variant == "element":
         denom = jp + jg + EPS
@@ -124,31 +133,64 @@ def _numpy(x) -> np.ndarray:
     return x.detach().cpu().numpy() if isinstance(x, torch.Tensor) else np.asarray(x)
 
 
-def _selected_clips(clips, lengths, name: str, setting: SJPESetting) -> list[np.ndarray]:
-    """Clips (a list, or a padded ``(N, T, J, 3)`` array cropped to ``lengths``), validated and reduced
-    to the selected joints in metres, float64. Padding is never read, not even to check it is finite."""
-    if isinstance(clips, (np.ndarray, torch.Tensor)) and clips.ndim == 4:
-        padded = _numpy(clips)
-        lengths = [padded.shape[1]] * padded.shape[0] if lengths is None else [int(n) for n in lengths]
-        if len(lengths) != padded.shape[0]:
-            raise ValueError(f"lengths has {len(lengths)} entries but {name} holds {padded.shape[0]} clips")
-        if any(n > padded.shape[1] for n in lengths):
-            raise ValueError(f"a length exceeds the padded time axis ({padded.shape[1]}) of {name}")
-        clips = [padded[i, :n] for i, n in enumerate(lengths)]
-    elif lengths is not None:
-        raise ValueError(f"lengths is only used with a padded (N, T, J, 3) array for {name}")
-    if len(clips) == 0:
-        raise ValueError(f"{name} is empty")
-    out = []
-    for i, clip in enumerate(clips):
-        a = _numpy(clip)
-        if a.ndim != 3 or a.shape[1:] != (setting.n_joints, 3):
-            raise ValueError(f"{name}[{i}] must have shape (T, {setting.n_joints}, 3), got {a.shape}")
-        if a.shape[0] < 4:
-            raise ValueError(f"{name}[{i}] needs at least 4 frames (a third difference), got {a.shape[0]}")
-        if not np.isfinite(a).all():
-            raise ValueError(f"{name}[{i}] contains NaN or inf values")
-        out.append(a[:, setting.joints].astype(np.float64) * setting.to_metres)  # (T, n_sel, 3)
+def _clip_joints(clips, lengths, name: str, setting: SJPESetting) -> ClipJoints:
+    """``clips`` -- a :class:`ClipJoints`, a list of ``(T_i, J, 3)``, or a padded ``(N, T, J, 3)`` array with
+    ``lengths`` -- validated and packed. Padding is never read, not even to check it is finite."""
+    if isinstance(clips, ClipJoints):
+        if lengths is not None:
+            raise ValueError(f"lengths is not used with a ClipJoints {name}: it carries its own")
+        joints = clips
+    else:
+        padded = isinstance(clips, (np.ndarray, torch.Tensor)) and clips.ndim == 4
+        if padded and lengths is not None:
+            if len(lengths) != clips.shape[0]:
+                raise ValueError(f"lengths has {len(lengths)} entries but {name} holds {clips.shape[0]} clips")
+            if any(int(n) > clips.shape[1] for n in lengths):
+                raise ValueError(f"a length exceeds the padded time axis ({clips.shape[1]}) of {name}")
+        elif lengths is not None:
+            raise ValueError(f"lengths is only used with a padded (N, T, J, 3) array for {name}")
+        if not padded:
+            clips = list(clips)
+            if len(clips) == 0:
+                raise ValueError(f"{name} is empty")
+            for i, clip in enumerate(clips):
+                shape = np.shape(clip)
+                if len(shape) != 3 or shape[1:] != (setting.n_joints, 3):
+                    raise ValueError(f"{name}[{i}] must have shape (T, {setting.n_joints}, 3), got {shape}")
+                if shape[0] < 4:
+                    raise ValueError(f"{name}[{i}] needs at least 4 frames (a third difference), got {shape[0]}")
+        try:
+            joints = ClipJoints.from_joints(clips, lengths)
+        except ValueError as err:
+            raise ValueError(f"{name}: {err}") from None
+    if joints.n_joints != setting.n_joints:
+        raise ValueError(f"{name} must have shape (T, {setting.n_joints}, 3), got {joints.n_joints} joints")
+    short = np.flatnonzero(joints.lengths < 4)
+    if len(short):
+        raise ValueError(f"{name}[{short[0]}] needs at least 4 frames (a third difference), "
+                         f"got {joints.lengths[short[0]]}")  # fmt: skip
+    return joints
+
+
+def _select(positions: np.ndarray, setting: SJPESetting) -> np.ndarray:
+    """The selected joints of packed positions ``(F, J, 3)``, in metres: ``(F, n_sel, 3)``."""
+    columns = (3 * np.array(setting.joints)[:, None] + np.arange(3)).ravel()  # x, y, z of each selected joint
+    selected = positions.reshape(len(positions), -1)[:, columns].reshape(-1, len(setting.joints), 3)
+    return selected * setting.to_metres if setting.to_metres != 1.0 else selected
+
+
+_BLOCK_FRAMES = 16384  # clips are scored a block of about this many frames at a time: the temporaries stay in cache
+
+
+def _blocks(lengths: np.ndarray) -> list[tuple[int, int]]:
+    """Consecutive clip ranges ``[a, b)`` of about ``_BLOCK_FRAMES`` frames each (at least one clip)."""
+    ends = np.cumsum(lengths)
+    out, a = [], 0
+    while a < len(lengths):
+        start = ends[a] - lengths[a]
+        b = max(a + 1, int(np.searchsorted(ends, start + _BLOCK_FRAMES, side="right")))
+        out.append((a, b))
+        a = b
     return out
 
 
@@ -158,8 +200,9 @@ def sjpe_dataset(
     """sJPE over many clips of possibly different lengths.
 
     ``pred_clips``/``gt_clips``: lists of ``(T_i, J, 3)`` joint positions (all joints of the skeleton;
-    metres for t2m, millimetres for KIT), or padded ``(N, T, J, 3)`` arrays with ``lengths`` -- frames
-    past ``lengths[i]`` are never read. Pair ``i`` must have equal lengths.
+    metres for t2m, millimetres for KIT), padded ``(N, T, J, 3)`` arrays with ``lengths`` -- frames
+    past ``lengths[i]`` are never read -- or :class:`ClipJoints` (recovered once, shared with other metrics;
+    the fastest). Pair ``i`` must have equal lengths.
     """
     if variant not in VARIANTS:
         raise ValueError(f"variant must be one of {VARIANTS}, got {variant!r}")
@@ -175,28 +218,40 @@ def sjpe_variants(
     if unknown:
         raise ValueError(f"variants must be among {VARIANTS}, got {unknown}")
     setting = sjpe_setting(skeleton)
-    pred = _selected_clips(pred_clips, lengths, "pred_clips", setting)
-    gt = _selected_clips(gt_clips, lengths, "gt_clips", setting)
+    pred = _clip_joints(pred_clips, lengths, "pred_clips", setting)
+    gt = _clip_joints(gt_clips, lengths, "gt_clips", setting)
     if len(pred) != len(gt):
         raise ValueError(f"pred_clips has {len(pred)} clips but gt_clips has {len(gt)}")
-    for i, (p, g) in enumerate(zip(pred, gt)):
-        if p.shape != g.shape:
-            raise ValueError(f"clip {i}: prediction has {len(p)} frames but ground truth has {len(g)}")
-    jp, clip_id = _jerk_magnitudes(pred, setting.fps)
-    jg, _ = _jerk_magnitudes(gt, setting.fps)
-    n_cells = np.bincount(clip_id, minlength=len(pred)) * len(setting.joints)
-    mean_p = np.bincount(clip_id, weights=jp.sum(axis=1), minlength=len(pred)) / n_cells
-    mean_g = np.bincount(clip_id, weights=jg.sum(axis=1), minlength=len(pred)) / n_cells
-    return {v: SJPEResult(*_score(jp, jg, clip_id, len(pred), v), mean_p, mean_g) for v in variants}
+    differ = np.flatnonzero(pred.lengths != gt.lengths)
+    if len(differ):
+        i = int(differ[0])
+        raise ValueError(f"clip {i}: prediction has {pred.lengths[i]} frames but ground truth has {gt.lengths[i]}")
+    # Clips are independent: score them a block at a time (whole clips per block, so every value is the
+    # same as in one pass), which keeps the jerk arrays of a block in cache.
+    parts: dict[str, list] = {v: [] for v in variants}
+    means: list[tuple[np.ndarray, np.ndarray]] = []
+    starts = pred.starts
+    for a, b in _blocks(pred.lengths):
+        rows = slice(int(starts[a]), int(starts[b - 1] + pred.lengths[b - 1]))
+        n = pred.lengths[a:b]
+        jp, clip_id = _jerk_magnitudes(_select(pred.positions[rows], setting), n, setting.fps)
+        jg, _ = _jerk_magnitudes(_select(gt.positions[rows], setting), n, setting.fps)
+        n_cells = np.bincount(clip_id, minlength=b - a) * len(setting.joints)
+        means.append((np.bincount(clip_id, weights=_row_sums(jp), minlength=b - a) / n_cells,
+                      np.bincount(clip_id, weights=_row_sums(jg), minlength=b - a) / n_cells))  # fmt: skip
+        for v in variants:
+            parts[v].append(_score(jp, jg, clip_id, b - a, v))
+    mean_p, mean_g = (np.concatenate(m) for m in zip(*means))
+    return {v: SJPEResult(*(np.concatenate(x) for x in zip(*parts[v])), mean_p, mean_g) for v in variants}
 
 
 def sjpe_jerk_magnitudes(clips, skeleton: str = "t2m") -> np.ndarray:
     """Every jerk magnitude sJPE compares, ``(sum_i (T_i - 3), n_selected)`` in m/s³, for a list of ``(T_i, J, 3)``
-    joint clips (all joints; metres for t2m, millimetres for KIT). Its percentiles say how much fine, fast
-    motion a dataset has: the yardstick an sJPE is relative to."""
+    joint clips (all joints; metres for t2m, millimetres for KIT) or a :class:`ClipJoints`. Its percentiles say
+    how much fine, fast motion a dataset has: the yardstick an sJPE is relative to."""
     setting = sjpe_setting(skeleton)
-    jerk, _ = _jerk_magnitudes(_selected_clips(list(clips), None, "clips", setting), setting.fps)
-    return jerk
+    joints = _clip_joints(clips if isinstance(clips, ClipJoints) else list(clips), None, "clips", setting)
+    return _jerk_magnitudes(_select(joints.positions, setting), joints.lengths, setting.fps)[0]
 
 
 def sjpe(pred_joints, gt_joints, skeleton: str = "t2m", variant: str = "element") -> dict[str, float]:
@@ -224,31 +279,30 @@ def sjpe_from_features(
     """sJPE from raw (de-normalised) HumanML3D features, as DisCoRD's evaluation does it.
 
     ``pred_feats``/``gt_feats``: ``(T, D)`` or ``(N, T, D)`` with ``D = 263`` (t2m) or ``251`` (KIT), or
-    lists of ``(T_i, D)``. Each clip is cropped to its length, then ``recover_from_ric`` gives joints.
-    Recovery integrates the root forward in time, so frame ``t`` depends only on rows ``<= t``: recovering
-    a padded batch and cropping afterwards is identical to recovering each crop.
+    lists of ``(T_i, D)``. Each clip is cropped to its length (``lengths``, for arrays), then its joints are
+    recovered on its real frames only (:meth:`ClipJoints.from_features`; the padding is never read). To score
+    both variants, or MPJPE too, recover the joints once with :class:`ClipJoints` and call :func:`sjpe_variants`.
     """
     setting = sjpe_setting(skeleton)
     joints = []
     for name, feats in (("pred_feats", pred_feats), ("gt_feats", gt_feats)):
+        n = None
         if isinstance(feats, (list, tuple)):
             if lengths is not None:
                 raise ValueError("lengths is only used with array inputs; crop list items yourself")
-            arrs = [as_float_array(f, f"{name}[{i}]") for i, f in enumerate(feats)]
-            joints.append([np.asarray(recover_from_ric(a, setting.n_joints)) for a in arrs])
-            continue
-        arr = _numpy(feats).astype(np.float64)  # a copy: the padding is overwritten below
-        if arr.ndim == 2:
-            arr = arr[None]
-        if arr.ndim != 3:
-            raise ValueError(f"{name} must have shape (T, D) or (N, T, D), got {arr.shape}")
-        n = [arr.shape[1]] * arr.shape[0] if lengths is None else [int(m) for m in lengths]
-        if len(n) != arr.shape[0] or any(m > arr.shape[1] for m in n):
-            raise ValueError(f"lengths {n} do not fit {name} of shape {arr.shape}")
-        for i, m in enumerate(n):
-            if not np.isfinite(arr[i, :m]).all():
-                raise ValueError(f"{name}[{i}] contains NaN or inf values")
-            arr[i, m:] = 0.0  # padding is never used; zero it so recovery can run on the whole batch
-        rec = np.asarray(recover_from_ric(arr, setting.n_joints))  # (N, T, J, 3)
-        joints.append([rec[i, :m] for i, m in enumerate(n)])
+        else:
+            feats = _numpy(feats)
+            feats = feats[None] if feats.ndim == 2 else feats
+            if feats.ndim != 3:
+                raise ValueError(f"{name} must have shape (T, D) or (N, T, D), got {feats.shape}")
+            n = [feats.shape[1]] * feats.shape[0] if lengths is None else [int(m) for m in lengths]
+            if len(n) != feats.shape[0] or any(m > feats.shape[1] for m in n):
+                raise ValueError(f"lengths {n} do not fit {name} of shape {feats.shape}")
+        try:
+            clips = ClipJoints.from_features(feats, n)
+        except ValueError as err:
+            raise ValueError(f"{name}: {err}") from None
+        if clips.n_joints != setting.n_joints:
+            raise ValueError(f"{name} has {clips.n_joints}-joint features, not the {setting.n_joints} of {skeleton}")
+        joints.append(clips)
     return sjpe_dataset(joints[0], joints[1], skeleton, variant)

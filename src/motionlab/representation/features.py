@@ -16,11 +16,13 @@ foot_contact          259:263    left ankle, left foot, right ankle, right foot 
 
 :func:`joints_to_features` follows the public HumanML3D processing step by step (retarget to the target
 skeleton, floor at y = 0, root at the origin in frame 0, face +Z in frame 0); :func:`recover_from_ric`
-and :func:`recover_from_rot` invert it.
+and :func:`recover_from_rot` invert it, and :func:`recover_packed_from_ric` does the former for a whole
+clip set at once, on real frames only (what the metrics use, via ``motionlab.metrics.ClipJoints``).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -204,6 +206,112 @@ def recover_from_ric(features, n_joints: int | None = None):
     ric = _qrot(_qinv(quat)[..., None, :].expand(ric.shape[:-1] + (4,)), ric)
     ric = ric + torch.stack((root[..., 0], torch.zeros_like(root[..., 0]), root[..., 2]), dim=-1)[..., None, :]
     return like_input(torch.cat((root[..., None, :], ric), dim=-2), was_numpy)
+
+
+# --- many clips at once, on their real frames only ------------------------------------------------------
+
+_BLOCK_FRAMES = 2048  # clips are recovered a block of about this many frames at a time: temporaries stay in cache
+
+
+def _clip_source(features, lengths) -> tuple[Callable[[int, int, int], np.ndarray], np.ndarray, int]:
+    """``rows(a, b, k)``: the first ``k`` feature columns of the real frames of clips ``a .. b-1``, clip after
+    clip; the lengths ``(N,)``; the feature dimension. ``features``: a list of ``(T_i, D)``, or ``(N, T, D)``
+    with ``lengths`` (the padding is never read)."""
+
+    def as_numpy(x) -> np.ndarray:
+        return x.detach().cpu().numpy() if isinstance(x, torch.Tensor) else np.asarray(x)
+
+    if isinstance(features, (list, tuple)):
+        if lengths is not None:
+            raise ValueError("lengths is only used with a padded (N, T, D) array; crop list items yourself")
+        if not features:
+            raise ValueError("features is an empty list")
+        clips = [as_numpy(f) for f in features]
+        for i, c in enumerate(clips):
+            if c.ndim != 2 or c.shape[-1] != clips[0].shape[-1] or len(c) == 0:
+                raise ValueError(f"features[{i}] must have shape (T >= 1, {clips[0].shape[-1]}), got {c.shape}")
+        n = np.array([len(c) for c in clips], dtype=np.int64)
+        return (lambda a, b, k: np.concatenate([c[:, :k] for c in clips[a:b]])), n, clips[0].shape[-1]
+    padded = as_numpy(features)
+    if padded.ndim != 3:
+        raise ValueError(f"features must be a list of (T_i, D) arrays or a padded (N, T, D) array, "
+                         f"got shape {padded.shape}")  # fmt: skip
+    n = np.full(len(padded), padded.shape[1], np.int64) if lengths is None else np.asarray(lengths, np.int64)
+    if n.shape != (len(padded),) or (n < 1).any() or (n > padded.shape[1]).any():
+        raise ValueError(f"lengths must be {len(padded)} values in [1, {padded.shape[1]}], got {n.tolist()}")
+    real = np.arange(padded.shape[1]) < n[:, None]  # (N, T)
+    return (lambda a, b, k: padded[a:b, :, :k][real[a:b]]), n, padded.shape[-1]
+
+
+def _rotate_y(c, uy, x, z):
+    """x and z of ``v = (x, y, z)`` rotated by the unit quaternion ``(c, 0, uy, 0)`` (y does not change).
+
+    ``_qrot``'s ``v + 2 (w (u x v) + u x (u x v))`` with the zero terms of ``u = (0, uy, 0)`` left out and the
+    rest in the same order, so it gives ``_qrot``'s result to the bit; no broadcast quaternion tensors.
+    """
+    a = uy * z  # (u x v)_x
+    b = -uy * x  # (u x v)_z
+    return x + 2.0 * (c * a + uy * b), z + 2.0 * (c * b - uy * a)
+
+
+def _recover_block(rows: np.ndarray, n: np.ndarray, out: np.ndarray) -> None:
+    """:func:`recover_from_ric` of packed clips: feature rows ``(F, 4 + 3 (J-1))`` of clips of ``n`` frames
+    into ``out`` ``(F, J, 3)``. Root rotation and position are per-clip running sums on an ``(N, max T)``
+    grid (zero past each clip's end); the root-relative joints are then rotated as flat arrays."""
+    frames, j = len(rows), out.shape[1]
+    clip = np.repeat(np.arange(len(n)), n)  # (F,) the clip of each frame
+    t = np.arange(frames) - np.repeat(np.cumsum(n) - n, n)  # (F,) the frame within its clip
+    root_in = rows[:, :4].astype(np.float64)  # (F, 4): rotation increment, x/z step, height
+    grid = np.zeros((len(n), int(n.max())))  # (N, max T)
+    grid[clip, t] = root_in[:, 0]
+    angle = np.zeros_like(grid)
+    angle[:, 1:] = np.cumsum(grid[:, :-1], axis=1)  # the half-angle sums the previous frames' increments
+    angle = angle[clip, t]
+    c, uy = np.cos(angle), -np.sin(angle)  # (F,) each: the inverse rotation (cos, 0, -sin, 0)
+    # Root position: the previous frame's (x, z) step turned into the world frame, summed per clip.
+    first = t == 0
+    prev_x, prev_z = (np.where(first, 0.0, np.roll(root_in[:, k], 1)) for k in (1, 2))
+    for axis, step in zip((0, 2), _rotate_y(c, uy, prev_x, prev_z)):
+        grid[clip, t] = step
+        out[:, 0, axis] = np.cumsum(grid, axis=1)[clip, t]
+    out[:, 0, 1] = root_in[:, 3]
+    ric = rows[:, 4:].reshape(frames, j - 1, 3)  # (F, J-1, 3): facing +Z, x/z relative to the root
+    x, z = _rotate_y(c[:, None], uy[:, None], ric[:, :, 0], ric[:, :, 2])
+    out[:, 1:, 0] = x + out[:, :1, 0]
+    out[:, 1:, 1] = ric[:, :, 1]
+    out[:, 1:, 2] = z + out[:, :1, 2]
+
+
+def recover_packed_from_ric(features, lengths=None, n_joints: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`recover_from_ric` of many clips at once, on their real frames only, in float64.
+
+    ``features``: a list of ``(T_i, D)`` arrays (NumPy or torch), or a padded ``(N, T, D)`` array with
+    ``lengths`` (frames past ``lengths[i]`` are never read, not even checked for NaN). Returns the joint
+    positions of every real frame, clip after clip, ``(sum_i T_i, J, 3)`` float64 C-contiguous, and the
+    lengths ``(N,)``: ``positions[start_i : start_i + T_i]`` equals ``recover_from_ric(clip_i)`` in float64.
+
+    Clips are recovered a block of whole clips (about ``_BLOCK_FRAMES`` frames) at a time, so every
+    temporary stays in cache and the output is written in one pass; no padded frame is touched and no
+    quaternion product runs on broadcast tensors.
+    """
+    rows_of, n, dim = _clip_source(features, lengths)
+    sk = skeleton_for_feature_dim(int(dim))
+    if n_joints is not None and n_joints != sk.n_joints:
+        raise ValueError(f"features of dimension {dim} belong to {sk.name} ({sk.n_joints} joints), not {n_joints}")
+    j = sk.n_joints
+    ends = np.cumsum(n)
+    out = np.empty((int(ends[-1]), j, 3))  # (F, J, 3)
+    a = 0
+    while a < len(n):
+        start = int(ends[a] - n[a])
+        b = max(a + 1, int(np.searchsorted(ends, start + _BLOCK_FRAMES, side="right")))  # whole clips
+        rows = rows_of(a, b, 4 + 3 * (j - 1))  # (F_block, 4 + 3 (J-1))
+        if not np.isfinite(rows).all():
+            bad = a + int(np.searchsorted(np.cumsum(n[a:b]), np.argmin(np.isfinite(rows).all(axis=1)), "right"))
+            raise ValueError(f"features of clip {bad} contain NaN or inf values")
+        _recover_block(rows, n[a:b], out[start : int(ends[b - 1])])
+        a = b
+    return out, n
 
 
 def recover_from_rot(features, skeleton: str | Skeleton | None = None):
