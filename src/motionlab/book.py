@@ -51,6 +51,7 @@ import inspect
 import random
 import re
 import textwrap
+import time
 from pathlib import Path
 
 import numpy as np
@@ -104,7 +105,23 @@ def setup(seed: int = 0, profile: str | None = None, threads: int | None = None)
     import matplotlib as mpl
 
     mpl.rcParams.update(RC_PARAMS)
+    global _started, _profile
+    _started, _profile = time.perf_counter(), profile
     return profile
+
+
+_started: float | None = None  # when setup() ran: the chapter's start
+_profile: str | None = None
+
+
+def chapter_time() -> float:
+    """Print and return the seconds since :func:`setup`: each chapter ends with this line, so a reader sees
+    what the chapter cost on their machine (models come from the cache when ``motionlab train book`` ran first)."""
+    if _started is None:
+        raise RuntimeError("book.setup() was not called in this kernel, so the chapter has no start time")
+    seconds = time.perf_counter() - _started
+    print(f"this chapter ran in {seconds / 60:.1f} min ({seconds:.0f} s, profile {_profile})")
+    return seconds
 
 
 def repository_path(*parts: str) -> Path:

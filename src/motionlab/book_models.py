@@ -20,6 +20,7 @@ shared by the chapters that need it.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from functools import lru_cache, partial
 
 from .diffusion.training import PAPER_ETA
@@ -39,59 +40,64 @@ ESTIMATES_S: dict[str, dict[str, float]] = {
 
 
 # -- recipes: module-level so worker processes can unpickle them --------------------------------------------------
+# Every recipe takes the profile, the data seed and ``data`` (a dataset folder; None: the embedded dataset).
 @lru_cache(maxsize=4)  # the plan's cache checks share one loaded dataset
-def _dataset(profile: str, seed: int):
+def _dataset(profile: str, seed: int, data: str | None = None):
     from .data import load_dataset
 
-    return load_dataset(profile=profile, seed=seed)
+    return load_dataset(data, profile=profile, seed=seed)
 
 
-def make_data(profile: str, seed: int) -> None:
-    _dataset(profile, seed)
+def make_data(profile: str, seed: int, data: str | None = None) -> None:
+    _dataset(profile, seed, data)
 
 
-def make_tokenizer(profile: str, seed: int, kind: str) -> None:
+def make_tokenizer(profile: str, seed: int, kind: str, data: str | None = None) -> None:
     from .tokenizers import tokenizer_for_dataset
 
-    tokenizer_for_dataset(kind, _dataset(profile, seed), profile)
+    tokenizer_for_dataset(kind, _dataset(profile, seed, data), profile)
 
 
-def make_toy_flow(profile: str, seed: int, conditional: bool) -> None:
+def make_toy_flow(profile: str, seed: int, conditional: bool, data: str | None = None) -> None:
+    """Chapter 03's 2-D toy flows (``data`` is accepted for a uniform signature; they never read motion)."""
     from .flow.toy import toy_flow_config, train_or_load_toy_flow
 
     train_or_load_toy_flow(toy_flow_config(profile, distribution="ring", conditional=conditional, seed=seed),
                            profile=profile)  # fmt: skip
 
 
-def make_evaluator(profile: str, seed: int) -> None:
+def make_evaluator(profile: str, seed: int, data: str | None = None) -> None:
     from .metrics.evaluator_training import load_or_train_evaluator
 
-    load_or_train_evaluator(_dataset(profile, seed), profile)
+    load_or_train_evaluator(_dataset(profile, seed, data), profile)
 
 
-def make_discord(profile: str, seed: int, tokens: str, projection: str = "stacked") -> None:
+def make_discord(profile: str, seed: int, tokens: str, projection: str = "stacked", data: str | None = None,
+                 overrides: dict | None = None) -> None:  # fmt: skip
     from .flow import train_or_load_discord
     from .tokenizers import tokenizer_for_dataset
 
-    dataset = _dataset(profile, seed)
+    dataset = _dataset(profile, seed, data)
     tokenizer = tokenizer_for_dataset(tokens, dataset, profile)
-    train_or_load_discord(dataset, tokenizer, profile, config=projection_config(profile, tokenizer, projection, seed))
+    config = projection_config(profile, tokenizer, projection, seed, **(overrides or {}))
+    train_or_load_discord(dataset, tokenizer, profile, config=config)
 
 
-def projection_config(profile: str, tokenizer, projection: str = "stacked", seed: int = 0):
+def projection_config(profile: str, tokenizer, projection: str = "stacked", seed: int = 0, **overrides):
     """The DisCoRD config of a condition projection: chapter 05's decoder with only the projection changed.
 
     ``stacked`` (the paper's) *is* chapter 05's decoder, so chapter 04's ablation shares it.
     """
     from .flow import discord_config
 
-    return discord_config(profile, tokenizer=tokenizer, projection=projection, seed=seed)
+    return discord_config(profile, tokenizer=tokenizer, projection=projection, seed=seed, **overrides)
 
 
-def make_text_to_motion(profile: str, seed: int, eta: float | None, training_seed: int | None = None) -> None:
+def make_text_to_motion(profile: str, seed: int, eta: float | None, training_seed: int | None = None,
+                        data: str | None = None, distance: str = "l2_rank") -> None:  # fmt: skip
     from .diffusion import text_to_motion_for_dataset
 
-    text_to_motion_for_dataset(_dataset(profile, seed), profile, eta=eta, seed=training_seed)
+    text_to_motion_for_dataset(_dataset(profile, seed, data), profile, eta=eta, seed=training_seed, distance=distance)
 
 
 # -- the plan ------------------------------------------------------------------------------------------------------
@@ -105,35 +111,58 @@ def is_cached(run) -> bool:
     return True
 
 
-def book_jobs(profile: str | None = None, seed: int = 0) -> list[Job]:
-    """The book's models for ``profile``, in a valid training order (inputs first)."""
+def book_jobs(profile: str | None = None, seed: int = 0, *, data: str | None = None,
+              flow_options: dict | None = None) -> list[Job]:
+    """The book's models for ``profile``, in a valid training order (inputs first).
+
+    ``data`` trains them on a dataset folder instead of the embedded data; ``flow_options`` override the
+    config of the two ``stacked`` DisCoRD decoders (what ``train discord --predict ...`` does).
+    """
     profile = get_profile(profile)
     cost = ESTIMATES_S[profile]
+    on = {"data": data}
 
-    def job(name: str, run, kind: str, after: tuple[str, ...] = ()) -> Job:
+    def job(name: str, recipe, args: tuple, kind: str, after: tuple[str, ...] = (), **kwargs) -> Job:
+        run = partial(recipe, profile, seed, *args, **on, **kwargs)
         return Job(name, run, after, cost[kind], partial(is_cached, run))
 
+    vq, rvq, flow = ("tokenizer/vq",), ("tokenizer/rvq",), {"overrides": flow_options}
     return [
-        job("data", partial(make_data, profile, seed), "data"),
+        job("data", make_data, (), "data"),
         # longest chains first, so the greedy scheduler starts them early
-        job("tokenizer/rvq", partial(make_tokenizer, profile, seed, "rvq"), "tokenizer", ("data",)),
-        job("tokenizer/vq", partial(make_tokenizer, profile, seed, "vq"), "tokenizer", ("data",)),
-        job("discord/rvq", partial(make_discord, profile, seed, "rvq"), "discord", ("tokenizer/rvq",)),
-        job("discord/vq", partial(make_discord, profile, seed, "vq"), "discord", ("tokenizer/vq",)),
-        job("t2m/dynamic", partial(make_text_to_motion, profile, seed, None), "t2m", ("tokenizer/vq",)),
-        job("t2m/uniform", partial(make_text_to_motion, profile, seed, 0.0), "t2m", ("tokenizer/vq",)),
-        job("t2m/multi-eta0.25", partial(make_text_to_motion, profile, seed, MULTI_MOTION_ETA), "t2m",
-            ("tokenizer/vq",)),
+        job("tokenizer/rvq", make_tokenizer, ("rvq",), "tokenizer", ("data",)),
+        job("tokenizer/vq", make_tokenizer, ("vq",), "tokenizer", ("data",)),
+        job("discord/rvq", make_discord, ("rvq",), "discord", rvq, **flow),
+        job("discord/vq", make_discord, ("vq",), "discord", vq, **flow),
+        job("t2m/dynamic", make_text_to_motion, (None,), "t2m", vq),
+        job("t2m/uniform", make_text_to_motion, (0.0,), "t2m", vq),
+        job("t2m/multi-eta0.25", make_text_to_motion, (MULTI_MOTION_ETA,), "t2m", vq),
         # chapter 08's training-seed replicates (seed 0 of each arm is the pair above)
-        job("t2m/dynamic-seed1", partial(make_text_to_motion, profile, seed, PAPER_ETA, 1), "t2m", ("tokenizer/vq",)),
-        job("t2m/uniform-seed1", partial(make_text_to_motion, profile, seed, 0.0, 1), "t2m", ("tokenizer/vq",)),
-        job("discord/rvq-repeat", partial(make_discord, profile, seed, "rvq", "repeat"), "discord", ("tokenizer/rvq",)),
-        job("discord/rvq-transposed", partial(make_discord, profile, seed, "rvq", "transposed"), "discord",
-            ("tokenizer/rvq",)),
-        job("evaluator", partial(make_evaluator, profile, seed), "evaluator", ("data",)),
-        job("toy_flow/ring", partial(make_toy_flow, profile, seed, False), "toy_flow"),
-        job("toy_flow/ring-conditional", partial(make_toy_flow, profile, seed, True), "toy_flow"),
-    ]  # fmt: skip
+        job("t2m/dynamic-seed1", make_text_to_motion, (PAPER_ETA, 1), "t2m", vq),
+        job("t2m/uniform-seed1", make_text_to_motion, (0.0, 1), "t2m", vq),
+        job("discord/rvq-repeat", make_discord, ("rvq", "repeat"), "discord", rvq),
+        job("discord/rvq-transposed", make_discord, ("rvq", "transposed"), "discord", rvq),
+        *([job(f"t2m/distance-{d}", make_text_to_motion, (None, None), "t2m", vq, distance=d)
+           for d in ("l2", "cosine", "cosine_rank")] if profile == "full" else []),  # chapter 08's distance ablation
+        job("evaluator", make_evaluator, (), "evaluator", ("data",)),
+        job("toy_flow/ring", make_toy_flow, (False,), "toy_flow"),
+        job("toy_flow/ring-conditional", make_toy_flow, (True,), "toy_flow"),
+    ]
 
 
-__all__ = ["ESTIMATES_S", "book_jobs", "is_cached", "projection_config"]
+def jobs_for(names: Sequence[str], profile: str | None = None, **kwargs) -> list[Job]:
+    """The named jobs of :func:`book_jobs` and every job they need, in plan order (what one command needs)."""
+    jobs = {job.name: job for job in book_jobs(profile, **kwargs)}
+    unknown = sorted(set(names) - set(jobs))
+    if unknown:
+        raise ValueError(f"unknown models {unknown}; the plan has {sorted(jobs)}")
+    needed, todo = set(), list(names)
+    while todo:
+        name = todo.pop()
+        if name not in needed:
+            needed.add(name)
+            todo.extend(jobs[name].after)
+    return [job for name, job in jobs.items() if name in needed]
+
+
+__all__ = ["ESTIMATES_S", "book_jobs", "is_cached", "jobs_for", "projection_config"]

@@ -86,6 +86,10 @@ def _train(args: argparse.Namespace) -> int:
     _check_cache_writable()  # a read-only cache would fail only after the training
     ctx = init_distributed()  # a no-op unless launched by torchrun
     profile = get_profile(args.profile)
+    if ctx.is_main:
+        model_job = {"vq": "tokenizer/vq", "rvq": "tokenizer/rvq", "evaluator": "evaluator", "diffusion": "t2m/dynamic",
+                     "discord": f"discord/{args.tokenizer or 'rvq'}"}[args.model]  # fmt: skip
+        _announce_training(profile, [model_job], args.data, flow_options)
     dataset = load_dataset(args.data, profile=profile)
     model = _trained_model(args.model, dataset, profile, args.device, flow_options, args.tokenizer or "rvq")
     n_params = sum(p.numel() for p in model.parameters())
@@ -152,6 +156,8 @@ def _book_execute(args: argparse.Namespace) -> int:
     recorded = root / "book" / "data" / "build_times" / f"{profile}.json"
     previous = runner.load_timings(timings_path) or runner.load_timings(recorded)
     os.environ["MOTIONLAB_PROFILE"] = profile  # the chapters' kernels inherit it
+    # ... and this: a chapter that would train a model outside `train book`'s plan fails instead of training
+    os.environ["MOTIONLAB_NO_TRAIN"] = "1"
     print(f"executing {len(chapters)} chapters ({profile}), {args.jobs} at a time -> {out_dir}", flush=True)
     start = time.monotonic()
     last = {c.stem for c in chapters if runner.runs_last(c)}  # summaries that read the others' results
@@ -217,6 +223,7 @@ def _generate(args: argparse.Namespace) -> int:
     profile = get_profile(args.profile)
     _check_generation_lengths(lengths, profile)
     _check_output(args.out, args.force, "--out")  # before any training or sampling
+    _announce_training(profile, ["t2m/dynamic"] + (["discord/vq"] if args.decoder == "discord" else []), args.data)
     dataset = load_dataset(args.data, profile=profile)
     pipe = text_to_motion_for_dataset(dataset, profile, device=args.device)
     decoder = None
@@ -233,6 +240,18 @@ def _generate(args: argparse.Namespace) -> int:
         features = generator.generate(texts, lengths, method="tps", seed=args.seed, T_s=args.T_s)[0].features
     print(save_motion(features, args.out, title=" / ".join(texts)))
     return 0
+
+
+def _announce_training(profile: str, models: list[str], data: str | None = None, flow_options: dict | None = None):
+    """Before anything trains on first use: one line naming the missing models, in order, with the expected
+    time, and how to get a quick taste instead. Silent when everything is cached."""
+    from .book_models import jobs_for
+    from .train.plan import plan_line
+
+    line = plan_line(jobs_for(models, profile, data=data, flow_options=flow_options or None), workers=1)
+    if line:
+        taste = "" if profile == "smoke" else "; for a quick taste instead, add --profile smoke (seconds per model)"
+        print(f"note: {line}{taste}", file=sys.stderr, flush=True)
 
 
 def _check_generation_lengths(lengths: list[int], profile: str) -> None:
@@ -309,6 +328,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         check_json_path(args.json, force=args.force)  # refuse before hours of work, not after
         _check_writable_folder(args.json.parent, "--json")
     _check_evaluation_size(config)
+    _announce_training(profile, _evaluation_models(args.task, config), args.data, _flow_overrides(config))
     dataset = load_dataset(args.data, profile=profile)
     with _phase_lines(not sys.stderr.isatty()):  # bars on a terminal, one line per phase in a log
         table = EVALUATORS[args.task](dataset, config, profile, device=args.device, progress=sys.stderr.isatty())
@@ -317,6 +337,21 @@ def _evaluate(args: argparse.Namespace) -> int:
     if args.json is not None:
         print(f"wrote {write_json(table, args.json, force=args.force)}", file=sys.stderr)
     return 0
+
+
+def _evaluation_models(task: str, config) -> list[str]:
+    """The models an evaluation loads (or trains on first use), as names of the book's plan."""
+    if task == "reconstruction":
+        kind = config.tokenizer_kind
+        return [f"tokenizer/{kind}", "evaluator"] + ([f"discord/{kind}"] if config.decoder == "discord" else [])
+    return ["t2m/dynamic", "evaluator"] + (["discord/vq"] if config.decoder == "discord" else [])
+
+
+def _flow_overrides(config) -> dict:
+    """The DisCoRD training options an evaluation asks for (they select another cached decoder)."""
+    from .evaluation import FLOW_TRAINING_OPTIONS
+
+    return {k: getattr(config, k) for k in FLOW_TRAINING_OPTIONS if getattr(config, k, None) is not None}
 
 
 @contextlib.contextmanager

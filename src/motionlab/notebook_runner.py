@@ -2,11 +2,14 @@
 
 Why not let Jupyter Book execute them: it runs one notebook at a time, and a kernel that stops answering
 costs its whole per-cell timeout (an hour) before anything fails. Seen here (ipykernel 6.31, pyzmq 27,
-nbclient 0.11, a busy 2-core machine): a cell is sent, the kernel sits idle in its event loop, the client
-waits for a reply that never comes, both at 0% CPU; the cell never gets an execution count, so the request
-or its first reply was lost between them. The cause is below this project (kernel messaging); the cure
-here is to notice and start over:
+nbclient 0.11, a busy 2-core machine): at a ``widgets.interact`` cell the kernel sits idle in its event
+loop and the client waits for a reply that never comes, both at 0% CPU. Every stall measured was at a cell
+whose output goes into an ``Output`` widget; nbclient hands such outputs to a hook that sends them back to
+the kernel as comm messages on the shell channel (unawaited) while it waits on that channel for the cell's
+reply. Without the hook no stall was seen (numbers at ``register_output_hook`` below), so:
 
+- **no Output-widget hook**: an interact cell's outputs stay ordinary cell outputs (what a static page
+  shows anyway);
 - **watchdog**: while a cell runs, the kernel must either send messages or use CPU (its own or its child
   processes'). Silent *and* idle for ``stall_s`` seconds means stalled: the kernel is killed and the
   chapter re-executed from the top in a fresh kernel (models come from the cache, so this is cheap),
@@ -86,7 +89,8 @@ def _make_client(nb, cwd: Path, previous: dict[str, float], default_timeout_s: f
         return int(max(TIMEOUT_FLOOR_S, TIMEOUT_FACTOR * last) if last is not None else default_timeout_s)
 
     class WatchedClient(NotebookClient):
-        """Records when the current cell started and when the kernel last said anything."""
+        """Records when the current cell started and when the kernel last said anything; leaves the outputs of
+        ``Output`` widgets (``widgets.interact``) in the cell instead of sending them back to the kernel."""
 
         last_message = time.monotonic()
         running_cell: str | None = None
@@ -94,6 +98,18 @@ def _make_client(nb, cwd: Path, previous: dict[str, float], default_timeout_s: f
         def process_message(self, msg, cell, cell_index):  # every IOPub message of a running cell
             self.last_message = time.monotonic()
             return super().process_message(msg, cell, cell_index)
+
+        # nbclient routes what a cell prints inside an Output widget to a hook that sends each output back to
+        # the kernel as a comm message on the shell channel, without awaiting the send, while the client waits
+        # on that same channel for the cell's reply. Measured here (chapter 06, smoke, loaded 2-core machine):
+        # with the hook a widget cell stalled in 5 of 10 chapter runs, without it in 0 of 15 (a per-cell trace in the
+        # closing note of issue 17).
+        # Without the hook the interact plots are ordinary cell outputs, which a static page shows anyway.
+        def register_output_hook(self, msg_id, hook) -> None:
+            return None
+
+        def remove_output_hook(self, msg_id, hook) -> None:
+            return None
 
     client = WatchedClient(nb, kernel_name="python3", timeout_func=cell_timeout, allow_errors=False,
                            resources={"metadata": {"path": str(cwd)}}, record_timing=True)  # fmt: skip

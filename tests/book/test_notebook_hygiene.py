@@ -95,3 +95,9 @@ def test_chapter_map_links_every_chapter():
     intro = (REPO / "book" / "intro.md").read_text()
     unlinked = [p.name for p in NOTEBOOKS if f"../notebooks/{p.name}" not in intro]
     assert not unlinked, f"book/intro.md: link these chapters in the chapter map: {unlinked}"
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
+def test_chapter_ends_by_printing_its_wall_time(path):
+    nb = nbformat.read(path, as_version=4)
+    assert nb.cells[-1].cell_type == "code" and nb.cells[-1].source.strip() == "book.chapter_time();"

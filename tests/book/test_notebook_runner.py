@@ -83,3 +83,23 @@ def test_chapters_marked_last_start_after_all_others(tmp_path):
     summary = write_notebook(tmp_path / "z.ipynb", f"import pathlib\nassert pathlib.Path({str(marker)!r}).exists()")
     runs = execute_chapters([summary, first], tmp_path / "out", jobs=2, last={"z"}, out=open(tmp_path / "log", "w"))
     assert [r.name for r in runs] == ["z", "a"] and all(r.status == "ok" for r in runs)
+
+
+def test_an_interact_cell_keeps_its_output_in_the_cell(tmp_path):
+    pytest.importorskip("ipywidgets")
+    source = write_notebook(tmp_path / "widget.ipynb",
+                            "import ipywidgets as widgets\n"
+                            "widgets.interact(lambda x: print(f'value {x}'), x=widgets.IntSlider(value=3, max=9));")
+    run = execute_chapter(source, tmp_path / "widget-out.ipynb", stall_s=30, poll_s=0.5, log=lambda _: None)
+    assert run.status == "ok"
+    outputs = nbformat.read(tmp_path / "widget-out.ipynb", as_version=4).cells[0].outputs
+    assert any("value 3" in out.get("text", "") for out in outputs)  # not only inside the widget's state
+
+
+def test_the_summary_chapter_runs_after_the_others():
+    from pathlib import Path
+
+    from motionlab.notebook_runner import runs_last
+
+    notebooks = Path(__file__).resolve().parents[2] / "notebooks"
+    assert [p.stem for p in sorted(notebooks.glob("*.ipynb")) if runs_last(p)] == ["99_what_reproduces"]

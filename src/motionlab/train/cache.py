@@ -64,9 +64,13 @@ def cache_probe() -> Iterator[None]:
 
 
 def check_may_train(what: str) -> None:
-    """Call before training or generating ``what``: raises :class:`NotCached` inside :func:`cache_probe`."""
+    """Call before training or generating ``what``: raises :class:`NotCached` inside :func:`cache_probe`, or
+    when ``$MOTIONLAB_NO_TRAIN`` is set (``motionlab book execute`` sets it: chapters must only load)."""
     if _probing:
         raise NotCached(f"{what} is not in the cache")
+    if os.environ.get("MOTIONLAB_NO_TRAIN"):
+        raise NotCached(f"{what} is not in the cache and $MOTIONLAB_NO_TRAIN is set: train it first "
+                        "(`motionlab train book` trains every model the book's chapters load)")
 
 
 def config_dict(config: Any) -> dict[str, Any]:
