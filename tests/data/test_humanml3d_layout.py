@@ -108,3 +108,17 @@ def test_normalized_clips_and_key(tmp_path):
     key = ds.key
     Normalizer(np.zeros(263), np.ones(263)).save(tmp_path)
     assert MotionDataset(tmp_path).key != key  # other statistics, other models
+
+
+def test_captions_only_match_the_split_without_reading_motions(tmp_path, monkeypatch):
+    write_tiny_dataset(tmp_path)
+    expected = [c.captions for c in MotionDataset(tmp_path).split("train")]
+    fresh = MotionDataset(tmp_path)
+    real_load = np.load
+
+    def header_only(path, *args, **kwargs):  # reading a motion's values here would be the slow path
+        assert kwargs.get("mmap_mode") == "r", f"{path} was read, not mapped"
+        return real_load(path, *args, **kwargs)
+
+    monkeypatch.setattr(np, "load", header_only)
+    assert fresh.captions("train") == expected and len(expected) == 3  # same clips, segments and length filter

@@ -239,20 +239,26 @@ class MotionDataset:
             self._cache[key] = self._load(split, filter_lengths, limit)
         return self._cache[key]
 
-    def _load(self, split: str, filter_lengths: bool, limit: int | None) -> list[MotionClip]:
+    def captions(self, split: str) -> list[list[Caption]]:
+        """The captions of :meth:`split`'s clips, in the same order and with the same length filter, without
+        reading the motions (only their lengths): what a vocabulary needs, at a fraction of the cost."""
+        return [clip.captions for clip in self._load(split, True, None, read_motion=False)]
+
+    def _load(self, split: str, filter_lengths: bool, limit: int | None, read_motion: bool = True) -> list[MotionClip]:
         kind, clips = self.kind, []
         for clip_id in self.ids(split):
             feat_path = self.root / "new_joint_vecs" / f"{clip_id}.npy"
             text_path = self.root / "texts" / f"{clip_id}.txt"
             if not feat_path.is_file() or not text_path.is_file():
                 continue  # the public loaders skip ids without data the same way
-            try:
-                motion = np.load(feat_path, allow_pickle=False).astype(np.float32)
+            try:  # read_motion=False maps the file instead: its header gives the length, nothing else is read
+                motion = (np.load(feat_path, allow_pickle=False).astype(np.float32) if read_motion
+                          else np.load(feat_path, allow_pickle=False, mmap_mode="r"))  # fmt: skip
             except (OSError, ValueError) as err:
                 raise ValueError(f"{feat_path} cannot be read ({err})") from None
             if motion.ndim != 2 or motion.shape[1] != kind.feature_dim:
                 raise ValueError(f"{feat_path} has shape {motion.shape}, expected (T, {kind.feature_dim})")
-            if not np.isfinite(motion).all():
+            if read_motion and not np.isfinite(motion).all():
                 raise ValueError(f"{feat_path} contains NaN or inf values")
             whole, parts = [], []
             for cap in read_captions(text_path):

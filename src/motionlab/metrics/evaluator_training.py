@@ -301,8 +301,11 @@ def pick_captions(clips: Sequence[Any], rng: np.random.Generator) -> list[Any]:
 
 def build_vocabulary(dataset, config: EvaluatorTrainingConfig) -> CaptionVocabulary:
     """The vocabulary of the dataset's *training* captions (test words it never saw become ``unk``)."""
-    return CaptionVocabulary.build((caption_tokens(cap) for c in dataset.split("train") for cap in c.captions),
-                                   min_count=config.min_word_count)  # fmt: skip
+    if hasattr(dataset, "captions"):  # captions only: the motions are not read
+        captions = [cap for caps in dataset.captions("train") for cap in caps]
+    else:
+        captions = [cap for clip in dataset.split("train") for cap in clip.captions]
+    return CaptionVocabulary.build((caption_tokens(cap) for cap in captions), min_count=config.min_word_count)
 
 
 def _validation_fn(dataset, vocabulary: CaptionVocabulary, split: str = "val"):
