@@ -248,7 +248,10 @@ def _announce_training(profile: str, models: list[str], data: str | None = None,
     from .book_models import jobs_for
     from .train.plan import plan_line
 
-    line = plan_line(jobs_for(models, profile, data=data, flow_options=flow_options or None), workers=1)
+    try:
+        line = plan_line(jobs_for(models, profile, data=data, flow_options=flow_options or None), workers=1)
+    except Exception:  # noqa: BLE001 - advisory only: the command itself reports a bad dataset or cache
+        return
     if line:
         taste = "" if profile == "smoke" else "; for a quick taste instead, add --profile smoke (seconds per model)"
         print(f"note: {line}{taste}", file=sys.stderr, flush=True)

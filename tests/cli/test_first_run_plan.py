@@ -56,3 +56,9 @@ def test_no_train_mode_refuses_to_train(monkeypatch):
     monkeypatch.setenv("MOTIONLAB_NO_TRAIN", "1")
     with pytest.raises(NotCached, match="motionlab train book"):
         check_may_train("model 'x'")
+
+
+def test_a_failing_probe_does_not_stop_the_command(empty_home, capsys, monkeypatch):
+    monkeypatch.setattr("motionlab.data.load_dataset", lambda *a, **k: None)  # a broken dataset: the command says so
+    cli._announce_training("smoke", ["tokenizer/rvq"])
+    assert capsys.readouterr().err == ""

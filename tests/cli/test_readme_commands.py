@@ -27,6 +27,10 @@ EXCLUDED = {
     "motionlab evaluate t2m --repeats 20 --multimodality": "MultiModality of 20 repeats takes about 75 minutes "
     "even in smoke; the README says so (tests/cli/test_evaluate.py runs the same task small)",
     "torchrun": "starts 4 processes for 4 GPUs and reads a real dataset at /data/HumanML3D",
+    "motionlab data from-bvh mocap/": "needs the reader's own folder of BVH takes and captions "
+    "(tests/data/test_from_bvh.py runs the command on takes it writes and on the CMU takes)",
+    "motionlab train vq --data mydata": "trains on the dataset the from-bvh example writes "
+    "(tests/data/test_from_bvh.py trains on a converted folder)",
     "motionlab train book": "trains all of the book's models (the plan runner has its own tests in "
     "tests/train/test_plan.py; CI's `make book PROFILE=smoke` runs it)",
     "motionlab book execute": "executes every chapter (CI's `make book PROFILE=smoke` runs it; "
