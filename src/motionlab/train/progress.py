@@ -7,8 +7,7 @@ one progress line per model. Hooks must be cheap: they run once per optimisation
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 
 ProgressHook = Callable[[str, int, int], None]  # (run description, steps done, total steps)
 
@@ -31,16 +30,6 @@ def report(desc: str, step: int, total: int) -> None:
     """Tell every installed hook that run ``desc`` has finished ``step`` of ``total`` steps."""
     for hook in _hooks:
         hook(desc, step, total)
-
-
-@contextmanager
-def progress_hook(hook: ProgressHook) -> Iterator[None]:
-    """Install ``hook`` for the duration of the ``with`` block."""
-    _hooks.append(hook)
-    try:
-        yield
-    finally:
-        _hooks.remove(hook)
 
 
 def add_progress_hook(hook: ProgressHook) -> None:
