@@ -30,11 +30,11 @@ from .train.cache import NotCached, cache_probe
 from .train.plan import Job
 
 # Training CPU seconds per model on one core of the reference machine (2 cores, two 1-thread workers), from
-# `motionlab train book` (laptop: a DisCoRD step 0.54 s x 1,150, a diffusion step 0.42 s x 2,000); they drive the
-# plan line and the progress estimates, nothing else.
+# `motionlab train book` (laptop: a tokenizer step 0.26 s x 3,000, a DisCoRD step 0.54 s x 1,150, a diffusion step
+# 0.42 s x 2,000); they drive the plan line and the progress estimates, nothing else.
 ESTIMATES_S: dict[str, dict[str, float]] = {
     "smoke": {"data": 8, "tokenizer": 10, "toy_flow": 5, "evaluator": 10, "discord": 10, "t2m": 15},
-    "laptop": {"data": 150, "tokenizer": 660, "toy_flow": 90, "evaluator": 300, "discord": 620, "t2m": 840},
+    "laptop": {"data": 150, "tokenizer": 780, "toy_flow": 90, "evaluator": 300, "discord": 620, "t2m": 840},
     "full": {"data": 1500, "tokenizer": 36_000, "toy_flow": 300, "evaluator": 36_000, "discord": 360_000,
              "t2m": 180_000},
 }  # fmt: skip
