@@ -70,11 +70,10 @@ def _data_from_bvh(args: argparse.Namespace) -> int:
 
 def _train(args: argparse.Namespace) -> int:
     from .data import load_dataset
-    from .evaluation import FLOW_TRAINING_OPTIONS
     from .profiles import get_profile
     from .train.distributed import init_distributed
 
-    flow_options = {k: getattr(args, k) for k in FLOW_TRAINING_OPTIONS if getattr(args, k) is not None}
+    flow_options = _flow_overrides(args)
     if args.model == "book":
         return _train_book(args, flow_options)
     if args.jobs is not None:
@@ -350,11 +349,11 @@ def _evaluation_models(task: str, config) -> list[str]:
     return ["t2m/dynamic", "evaluator"] + (["discord/vq"] if config.decoder == "discord" else [])
 
 
-def _flow_overrides(config) -> dict:
-    """The DisCoRD training options an evaluation asks for (they select another cached decoder)."""
+def _flow_overrides(options) -> dict:
+    """The DisCoRD training options given (command-line args or an evaluation config): they select another decoder."""
     from .evaluation import FLOW_TRAINING_OPTIONS
 
-    return {k: getattr(config, k) for k in FLOW_TRAINING_OPTIONS if getattr(config, k, None) is not None}
+    return {k: getattr(options, k) for k in FLOW_TRAINING_OPTIONS if getattr(options, k, None) is not None}
 
 
 @contextlib.contextmanager

@@ -81,7 +81,11 @@ def format_minutes(seconds: float) -> str:
 
 def plan_line(jobs: Sequence[Job], workers: int = 1) -> str:
     """One sentence saying what will be trained and roughly how long it takes (``""`` when nothing is missing)."""
-    todo = missing_jobs(jobs)
+    return _describe(missing_jobs(jobs), workers)
+
+
+def _describe(todo: Sequence[Job], workers: int) -> str:
+    """The plan line for jobs already known to be missing (each cache check loads models: done once)."""
     if not todo:
         return ""
     total = sum(job.estimate_s for job in todo)
@@ -159,7 +163,7 @@ def run_plan(
         results[job.name].status = "pending"
     if pending:
         out = out or sys.stdout
-        print(plan_line(jobs, workers), file=out, flush=True)
+        print(_describe(pending, workers), file=out, flush=True)
         # Workers are spawned lazily and inherit the environment: one OpenMP thread each.
         with _environment(OMP_NUM_THREADS=str(threads)):
             _Scheduler(results, workers, threads, out, line_every_s).run(pending)
