@@ -9,18 +9,23 @@ everything cached after the plan ran.
           │                 ├─ t2m/multi-eta0.25                   (chapters 08, 09)
           │                 ├─ t2m/dynamic-seed1, t2m/uniform-seed1 (chapter 08's training-seed control)
           │                 └─ discord/vq                          (chapter 09)
-          ├─ tokenizer/rvq ─── discord/rvq, discord/rvq-repeat,
-          │                    discord/rvq-transposed              (chapters 04, 05)
+          ├─ tokenizer/rvq ─┬─ discord/rvq                         (chapters 05, 06)
+          │                 └─ ablation/stacked, ablation/repeat,
+          │                    ablation/transposed                 (chapter 04)
           └─ evaluator                                             (chapters 05–09)
     toy_flow/ring, toy_flow/ring-conditional                       (chapter 03)
 
-``discord/rvq`` is chapter 05's decoder and chapter 04's ``stacked`` row: one flow decoder per token type,
-shared by the chapters that need it.
+One flow decoder per token type serves every chapter that decodes those tokens. Chapter 04's projection ablation
+trains its three decoders at :data:`ABLATION_BUDGET` of that decoder's steps: the three must share one budget, and
+three full-budget decoders were a quarter of the laptop build's training for a comparison whose verdict ("no clear
+difference at this scale") did not change with the budget. In the ``full`` profile the ablation's ``stacked``
+decoder *is* chapter 05's, and the plan trains it once.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from functools import lru_cache, partial
 
 from .diffusion.training import PAPER_ETA
@@ -30,13 +35,14 @@ from .train.cache import NotCached, cache_probe
 from .train.plan import Job
 
 # Training CPU seconds per model on one core of the reference machine (2 cores, two 1-thread workers), from
-# `motionlab train book` (laptop: a tokenizer step 0.26 s x 3,000, a DisCoRD step 0.54 s x 1,150, a diffusion step
-# 0.42 s x 2,000); they drive the plan line and the progress estimates, nothing else.
+# `motionlab train book` (laptop: a tokenizer step 0.26 s x 2,000, a DisCoRD step 0.54 s x 1,150, the ablation's
+# 288 such steps, a diffusion step 0.42 s x 800); they drive the plan line and the progress estimates, nothing else.
 ESTIMATES_S: dict[str, dict[str, float]] = {
-    "smoke": {"data": 8, "tokenizer": 10, "toy_flow": 5, "evaluator": 10, "discord": 10, "t2m": 15},
-    "laptop": {"data": 150, "tokenizer": 780, "toy_flow": 90, "evaluator": 300, "discord": 620, "t2m": 840},
+    "smoke": {"data": 8, "tokenizer": 10, "toy_flow": 5, "evaluator": 10, "discord": 10, "ablation": 5, "t2m": 15},
+    "laptop": {"data": 150, "tokenizer": 520, "toy_flow": 90, "evaluator": 200, "discord": 620, "ablation": 160,
+               "t2m": 340},
     "full": {"data": 1500, "tokenizer": 36_000, "toy_flow": 300, "evaluator": 36_000, "discord": 360_000,
-             "t2m": 180_000},
+             "ablation": 360_000, "t2m": 180_000},
 }  # fmt: skip
 
 
@@ -74,24 +80,35 @@ def make_evaluator(profile: str, seed: int, data: str | None = None) -> None:
 
 
 def make_discord(profile: str, seed: int, tokens: str, projection: str = "stacked", data: str | None = None,
-                 overrides: dict | None = None) -> None:  # fmt: skip
+                 overrides: dict | None = None, ablation: bool = False) -> None:  # fmt: skip
     from .flow import train_or_load_discord
     from .tokenizers import tokenizer_for_dataset
 
     dataset = _dataset(profile, seed, data)
     tokenizer = tokenizer_for_dataset(tokens, dataset, profile)
-    config = projection_config(profile, tokenizer, projection, seed, **(overrides or {}))
+    config = projection_config(profile, tokenizer, projection, seed, ablation=ablation, **(overrides or {}))
     train_or_load_discord(dataset, tokenizer, profile, config=config)
 
 
-def projection_config(profile: str, tokenizer, projection: str = "stacked", seed: int = 0, **overrides):
+# Chapter 04's ablation budget, as a fraction of the profile's DisCoRD training steps (and warm-up).
+ABLATION_BUDGET = {"smoke": 0.5, "laptop": 0.25, "full": 1.0}
+
+
+def projection_config(profile: str, tokenizer, projection: str = "stacked", seed: int = 0, *,
+                      ablation: bool = False, **overrides):  # fmt: skip
     """The DisCoRD config of a condition projection: chapter 05's decoder with only the projection changed.
 
-    ``stacked`` (the paper's) *is* chapter 05's decoder, so chapter 04's ablation shares it.
+    ``ablation=True`` is chapter 04's setting: the same decoder at :data:`ABLATION_BUDGET` of its training steps.
+    ``stacked`` (the paper's projection) without ``ablation`` *is* chapter 05's decoder.
     """
     from .flow import discord_config
 
-    return discord_config(profile, tokenizer=tokenizer, projection=projection, seed=seed, **overrides)
+    config = discord_config(profile, tokenizer=tokenizer, projection=projection, seed=seed, **overrides)
+    if not ablation:
+        return config
+    fraction = ABLATION_BUDGET[get_profile(profile)]
+    steps = max(1, round(config.train_steps * fraction))
+    return replace(config, train_steps=steps, warmup_steps=min(steps - 1, round(config.warmup_steps * fraction)))
 
 
 def make_text_to_motion(profile: str, seed: int, eta: float | None, training_seed: int | None = None,
@@ -141,8 +158,8 @@ def book_jobs(profile: str | None = None, seed: int = 0, *, data: str | None = N
         # chapter 08's training-seed replicates (seed 0 of each arm is the pair above)
         job("t2m/dynamic-seed1", make_text_to_motion, (PAPER_ETA, 1), "t2m", vq),
         job("t2m/uniform-seed1", make_text_to_motion, (0.0, 1), "t2m", vq),
-        job("discord/rvq-repeat", make_discord, ("rvq", "repeat"), "discord", rvq),
-        job("discord/rvq-transposed", make_discord, ("rvq", "transposed"), "discord", rvq),
+        *[job(f"ablation/{kind}", make_discord, ("rvq", kind), "ablation", rvq, ablation=True)
+          for kind in ("stacked", "repeat", "transposed") if not (kind == "stacked" and ABLATION_BUDGET[profile] == 1)],
         *([job(f"t2m/distance-{d}", make_text_to_motion, (None, None), "t2m", vq, distance=d)
            for d in ("l2", "cosine", "cosine_rank")] if profile == "full" else []),  # chapter 08's distance ablation
         job("evaluator", make_evaluator, (), "evaluator", ("data",)),
@@ -166,4 +183,4 @@ def jobs_for(names: Sequence[str], profile: str | None = None, **kwargs) -> list
     return [job for name, job in jobs.items() if name in needed]
 
 
-__all__ = ["ESTIMATES_S", "book_jobs", "is_cached", "jobs_for", "projection_config"]
+__all__ = ["ABLATION_BUDGET", "ESTIMATES_S", "book_jobs", "is_cached", "jobs_for", "projection_config"]

@@ -37,6 +37,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from .profiles import env_threads
+from .workers import interrupt_when_orphaned, native_threads_for_children
+
 STALL_S = 180.0  # silent and idle this long while a cell runs: the kernel is stalled
 ATTEMPTS = 3
 DEFAULT_CELL_TIMEOUT_S = 3600.0
@@ -270,7 +273,10 @@ def execute_chapters(
 
     paths = [Path(s) for s in sources]
     phases = [longest_first(p for p in paths if p.stem not in last), longest_first(p for p in paths if p.stem in last)]
-    with ProcessPoolExecutor(max_workers=jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
+    context = multiprocessing.get_context("spawn")
+    with native_threads_for_children(env_threads() or 1), ProcessPoolExecutor(
+        jobs, mp_context=context, initializer=interrupt_when_orphaned
+    ) as pool:
         for phase in phases:
             for future in as_completed([pool.submit(_execute_star, task(src)) for src in phase]):
                 run = future.result()

@@ -37,3 +37,4 @@ def env_threads() -> int | None:
     if threads < 1:
         raise ValueError(f"MOTIONLAB_THREADS must be a positive int, got {value!r}")
     return threads
+

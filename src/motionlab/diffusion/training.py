@@ -80,13 +80,14 @@ class DiffusionTrainingConfig:
             raise ValueError(f"transformer.eta must be finite, got {t.eta}")
 
 
-# Small profiles: sizes measured to train in seconds (smoke) and about five minutes on 2 CPU cores (laptop).
-# The learning rates are larger than the paper's 2e-4: these runs are a few thousand steps, not 110 epochs.
+# Small profiles: seconds of training (smoke); about 6 minutes on one CPU core (laptop: 800 steps of ~0.42 s, five
+# such models in the book, see motionlab.book_models). The learning rates are larger than the paper's 2e-4: these
+# runs are hundreds of steps, not 110 epochs.
 _TRANSFORMER = {
     "smoke": dict(n_layers=2, n_heads=2, d_model=32, d_ff=64, rel_buckets=16, rel_max_distance=32,
                   batch_size=16, train_steps=150, lr=2e-3, lr_decayed=2e-4),
     "laptop": dict(n_layers=3, n_heads=4, d_model=128, d_ff=256, rel_buckets=32, rel_max_distance=64,
-                   batch_size=32, train_steps=2000, lr=1e-3, lr_decayed=1e-4),
+                   batch_size=32, train_steps=800, lr=1e-3, lr_decayed=1e-4),
     "full": dict(),
 }  # fmt: skip
 _TEXT = {

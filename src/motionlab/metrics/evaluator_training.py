@@ -77,7 +77,7 @@ def evaluator_config(profile: str | None = None) -> EvaluatorTrainingConfig:
     if profile == "laptop":
         nets = EvaluatorConfig(dim_word=64, dim_text_hidden=128, dim_motion_hidden=128, dim_coemb=512,
                                dim_movement_hidden=128, dim_movement_latent=128)  # fmt: skip
-        return EvaluatorTrainingConfig(nets, steps=1200, batch_size=32, lr=1e-3, grad_clip=1.0, val_every=200)
+        return EvaluatorTrainingConfig(nets, steps=800, batch_size=32, lr=1e-3, grad_clip=1.0, val_every=200)
     return EvaluatorTrainingConfig(EvaluatorConfig.official("t2m"), steps=40000, batch_size=32, lr=1e-4,
                                    grad_clip=0.5, val_every=2000)  # fmt: skip
 

@@ -65,7 +65,7 @@ def _small(cls, profile: str, **extra):
         train = TrainConfig(steps=40, lr=2e-3, schedule="cosine", warmup_steps=5, log_every=10)
         return cls(width=32, depth=1, code_dim=16, codebook_size=32, window=16, batch_size=8, dropout=0.0,
                    gumbel_temperature=0.0, train=train, **extra)  # fmt: skip
-    train = TrainConfig(steps=3000, lr=1e-3, schedule="cosine", warmup_steps=100, min_lr_ratio=0.05,
+    train = TrainConfig(steps=2000, lr=1e-3, schedule="cosine", warmup_steps=100, min_lr_ratio=0.05,
                         grad_clip=1.0, log_every=50, ckpt_every=500)  # fmt: skip
     return cls(width=128, depth=2, code_dim=64, codebook_size=256, window=64, batch_size=32, dropout=0.0,
                gumbel_temperature=0.0, train=train, **extra)  # fmt: skip

@@ -23,6 +23,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any, TextIO
 
+from ..workers import interrupt_when_orphaned, native_threads_for_children
 from .progress import add_progress_hook, disable_bars
 
 _REPORT_EVERY_S = 2.0  # how often a worker forwards its step count
@@ -117,6 +118,7 @@ def _init_worker(queue: Any, threads: int) -> None:
     """Runs once in each worker process: one torch thread, no progress bars, steps forwarded to the parent."""
     global _queue
     _queue = queue
+    interrupt_when_orphaned()  # a job whose plan is gone stops (its checkpoints stay) instead of training on
     disable_bars()
     import torch
 
@@ -174,7 +176,8 @@ class _Scheduler:
     """Starts jobs whose inputs are done, collects results and progress, prints the lines."""
 
     def __init__(self, results: dict[str, JobResult], workers: int, threads: int, out: TextIO, line_every_s: float):
-        self.results, self.workers, self.out, self.line_every_s = results, workers, out, line_every_s
+        self.results, self.workers, self.threads, self.out = results, workers, threads, out
+        self.line_every_s = line_every_s
         self.done = {name for name, r in results.items() if r.status == "cached"}
         self.running: dict[Future, _Running] = {}
         self.t0 = time.monotonic()
@@ -188,6 +191,10 @@ class _Scheduler:
         print(f"[{int(elapsed // 60):3d}:{int(elapsed % 60):02d}] {text}", file=self.out, flush=True)
 
     def run(self, pending: list[Job]) -> None:
+        with native_threads_for_children(self.threads):
+            self._run(pending)
+
+    def _run(self, pending: list[Job]) -> None:
         try:
             while pending or self.running:
                 self.start_ready(pending)
