@@ -9,23 +9,19 @@ everything cached after the plan ran.
           │                 ├─ t2m/multi-eta0.25                   (chapters 08, 09)
           │                 ├─ t2m/dynamic-seed1, t2m/uniform-seed1 (chapter 08's training-seed control)
           │                 └─ discord/vq                          (chapter 09)
-          ├─ tokenizer/rvq ─┬─ discord/rvq                         (chapters 05, 06)
-          │                 └─ ablation/stacked, ablation/repeat,
-          │                    ablation/transposed                 (chapter 04)
+          ├─ tokenizer/rvq ─── discord/rvq, discord/rvq-repeat,
+          │                    discord/rvq-transposed              (chapters 04, 05)
           └─ evaluator                                             (chapters 05–09)
     toy_flow/ring, toy_flow/ring-conditional                       (chapter 03)
 
-One flow decoder per token type serves every chapter that decodes those tokens. Chapter 04's projection ablation
-trains its three decoders at :data:`ABLATION_BUDGET` of that decoder's steps: the three must share one budget, and
-three full-budget decoders were a quarter of the laptop build's training for a comparison whose verdict ("no clear
-difference at this scale") did not change with the budget. In the ``full`` profile the ablation's ``stacked``
-decoder *is* chapter 05's, and the plan trains it once.
+``discord/rvq`` is chapter 05's decoder and chapter 04's ``stacked`` row: one flow decoder per token type,
+shared by the chapters that need it. Chapter 04's other two projections are trained at the same budget: at a
+quarter of it (tried while sizing the build) the decoders were far from converged and the ablation meaningless.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import replace
 from functools import lru_cache, partial
 
 from .diffusion.training import PAPER_ETA
@@ -35,14 +31,13 @@ from .train.cache import NotCached, cache_probe
 from .train.plan import Job
 
 # Training CPU seconds per model on one core of the reference machine (2 cores, two 1-thread workers), from
-# `motionlab train book` (laptop: a tokenizer step 0.26 s x 2,000, a DisCoRD step 0.54 s x 1,150, the ablation's
-# 288 such steps, a diffusion step 0.42 s x 800); they drive the plan line and the progress estimates, nothing else.
+# `motionlab train book` (laptop: a tokenizer step 0.26 s x 2,000, a DisCoRD step 0.54 s x 1,150, a diffusion step
+# 0.34 s x 800); they drive the plan line and the progress estimates, nothing else.
 ESTIMATES_S: dict[str, dict[str, float]] = {
-    "smoke": {"data": 8, "tokenizer": 10, "toy_flow": 5, "evaluator": 10, "discord": 10, "ablation": 5, "t2m": 15},
-    "laptop": {"data": 150, "tokenizer": 520, "toy_flow": 90, "evaluator": 200, "discord": 620, "ablation": 160,
-               "t2m": 340},
+    "smoke": {"data": 8, "tokenizer": 10, "toy_flow": 5, "evaluator": 10, "discord": 10, "t2m": 15},
+    "laptop": {"data": 150, "tokenizer": 520, "toy_flow": 90, "evaluator": 200, "discord": 620, "t2m": 340},
     "full": {"data": 1500, "tokenizer": 36_000, "toy_flow": 300, "evaluator": 36_000, "discord": 360_000,
-             "ablation": 360_000, "t2m": 180_000},
+             "t2m": 180_000},
 }  # fmt: skip
 
 
@@ -80,35 +75,24 @@ def make_evaluator(profile: str, seed: int, data: str | None = None) -> None:
 
 
 def make_discord(profile: str, seed: int, tokens: str, projection: str = "stacked", data: str | None = None,
-                 overrides: dict | None = None, ablation: bool = False) -> None:  # fmt: skip
+                 overrides: dict | None = None) -> None:  # fmt: skip
     from .flow import train_or_load_discord
     from .tokenizers import tokenizer_for_dataset
 
     dataset = _dataset(profile, seed, data)
     tokenizer = tokenizer_for_dataset(tokens, dataset, profile)
-    config = projection_config(profile, tokenizer, projection, seed, ablation=ablation, **(overrides or {}))
+    config = projection_config(profile, tokenizer, projection, seed, **(overrides or {}))
     train_or_load_discord(dataset, tokenizer, profile, config=config)
 
 
-# Chapter 04's ablation budget, as a fraction of the profile's DisCoRD training steps (and warm-up).
-ABLATION_BUDGET = {"smoke": 0.5, "laptop": 0.25, "full": 1.0}
-
-
-def projection_config(profile: str, tokenizer, projection: str = "stacked", seed: int = 0, *,
-                      ablation: bool = False, **overrides):  # fmt: skip
+def projection_config(profile: str, tokenizer, projection: str = "stacked", seed: int = 0, **overrides):
     """The DisCoRD config of a condition projection: chapter 05's decoder with only the projection changed.
 
-    ``ablation=True`` is chapter 04's setting: the same decoder at :data:`ABLATION_BUDGET` of its training steps.
-    ``stacked`` (the paper's projection) without ``ablation`` *is* chapter 05's decoder.
+    ``stacked`` (the paper's) *is* chapter 05's decoder, so chapter 04's ablation shares it.
     """
     from .flow import discord_config
 
-    config = discord_config(profile, tokenizer=tokenizer, projection=projection, seed=seed, **overrides)
-    if not ablation:
-        return config
-    fraction = ABLATION_BUDGET[get_profile(profile)]
-    steps = max(1, round(config.train_steps * fraction))
-    return replace(config, train_steps=steps, warmup_steps=min(steps - 1, round(config.warmup_steps * fraction)))
+    return discord_config(profile, tokenizer=tokenizer, projection=projection, seed=seed, **overrides)
 
 
 def make_text_to_motion(profile: str, seed: int, eta: float | None, training_seed: int | None = None,
@@ -158,14 +142,51 @@ def book_jobs(profile: str | None = None, seed: int = 0, *, data: str | None = N
         # chapter 08's training-seed replicates (seed 0 of each arm is the pair above)
         job("t2m/dynamic-seed1", make_text_to_motion, (PAPER_ETA, 1), "t2m", vq),
         job("t2m/uniform-seed1", make_text_to_motion, (0.0, 1), "t2m", vq),
-        *[job(f"ablation/{kind}", make_discord, ("rvq", kind), "ablation", rvq, ablation=True)
-          for kind in ("stacked", "repeat", "transposed") if not (kind == "stacked" and ABLATION_BUDGET[profile] == 1)],
+        job("discord/rvq-repeat", make_discord, ("rvq", "repeat"), "discord", rvq),
+        job("discord/rvq-transposed", make_discord, ("rvq", "transposed"), "discord", rvq),
         *([job(f"t2m/distance-{d}", make_text_to_motion, (None, None), "t2m", vq, distance=d)
            for d in ("l2", "cosine", "cosine_rank")] if profile == "full" else []),  # chapter 08's distance ablation
         job("evaluator", make_evaluator, (), "evaluator", ("data",)),
         job("toy_flow/ring", make_toy_flow, (False,), "toy_flow"),
         job("toy_flow/ring-conditional", make_toy_flow, (True,), "toy_flow"),
     ]
+
+
+# The models each chapter loads (names of :func:`book_jobs`, laptop and smoke plans); the intro's chapter map charges a
+# model's training to the first chapter, in book order, that loads it.
+CHAPTER_MODELS: dict[str, tuple[str, ...]] = {
+    "01_motion_data": ("data",),
+    "02_vector_quantization": ("data", "tokenizer/vq", "tokenizer/rvq"),
+    "03_rectified_flow": ("toy_flow/ring", "toy_flow/ring-conditional"),
+    "04_condition_projection": ("data", "tokenizer/rvq", "discord/rvq", "discord/rvq-repeat", "discord/rvq-transposed"),
+    "05_discord": ("data", "tokenizer/rvq", "discord/rvq", "evaluator"),
+    "06_sjpe": ("data", "evaluator"),
+    "07_discrete_diffusion": ("data", "tokenizer/vq", "t2m/dynamic", "evaluator"),
+    "08_dynamic_transitions": ("data", "tokenizer/vq", "t2m/dynamic", "t2m/uniform", "t2m/multi-eta0.25",
+                               "t2m/dynamic-seed1", "t2m/uniform-seed1", "evaluator"),
+    "09_two_phase_sampling": ("data", "tokenizer/vq", "t2m/uniform", "t2m/multi-eta0.25", "discord/vq", "evaluator"),
+    "98_full_scale": (),
+    "99_what_reproduces": (),
+}  # fmt: skip
+
+
+def chapter_costs(training: dict[str, dict], execution: dict[str, dict]) -> dict[str, tuple[float, float]]:
+    """``{chapter: (cold, warm)}`` in seconds, in book order, from recorded build times.
+
+    ``training`` maps a model to its record (``cpu_seconds``), ``execution`` a chapter to its (``seconds``).
+    Warm is the chapter's execution with every model cached; cold adds the training CPU time of the models that
+    no earlier chapter loads (what reading the book in order from an empty cache costs on one core).
+    """
+    seen: set[str] = set()
+    costs = {}
+    for chapter, models in CHAPTER_MODELS.items():
+        if chapter not in execution:
+            continue
+        new = [m for m in models if m not in seen]
+        seen.update(models)
+        warm = float(execution[chapter]["seconds"])
+        costs[chapter] = (warm + sum(float(training.get(m, {}).get("cpu_seconds", 0.0)) for m in new), warm)
+    return costs
 
 
 def jobs_for(names: Sequence[str], profile: str | None = None, **kwargs) -> list[Job]:
@@ -183,4 +204,5 @@ def jobs_for(names: Sequence[str], profile: str | None = None, **kwargs) -> list
     return [job for name, job in jobs.items() if name in needed]
 
 
-__all__ = ["ABLATION_BUDGET", "ESTIMATES_S", "book_jobs", "is_cached", "jobs_for", "projection_config"]
+__all__ = ["CHAPTER_MODELS", "ESTIMATES_S", "book_jobs", "chapter_costs", "is_cached", "jobs_for",
+           "projection_config"]

@@ -78,6 +78,8 @@ def _train(args: argparse.Namespace) -> int:
         return _train_book(args, flow_options)
     if args.jobs is not None:
         raise ValueError("--jobs is for 'train book' (several models at once); one model trains in one process")
+    if args.record:
+        raise ValueError("--record is for 'train book': it records the book's training times")
     if flow_options and args.model != "discord":  # refused before any data is generated or loaded
         raise ValueError(f"{', '.join(flow_options)} configure the DisCoRD decoder; they need the model 'discord'")
     if args.tokenizer is not None and args.model != "discord":
@@ -110,6 +112,9 @@ def _train_book(args: argparse.Namespace, flow_options: dict) -> int:
     jobs = args.jobs if args.jobs is not None else 2
     if jobs < 1:
         raise ValueError(f"--jobs must be >= 1, got {jobs}")
+    record = Path("book") / "data" / "build_times"
+    if args.record and not (Path("book") / "_toc.yml").is_file():
+        raise FileNotFoundError("--record writes into the book's repository: run it from its root (book/_toc.yml)")
     _check_cache_writable()
     profile = get_profile(args.profile)
     plan = book_jobs(profile)
@@ -119,12 +124,25 @@ def _train_book(args: argparse.Namespace, flow_options: dict) -> int:
         print("interrupted: finished models are cached; run the same command again to train the rest", file=sys.stderr)
         return 130
     print(results_table(results))
+    if args.record:
+        _record_training(record / f"{profile}-training.json", results)
     failed = [r.name for r in results if r.status in ("failed", "skipped")]
     if failed:
         print(f"error: not trained: {', '.join(failed)}", file=sys.stderr)
         return 1
     print(f"the book's models ({profile}) are all in the cache")
     return 0
+
+
+def _record_training(path: Path, results) -> None:
+    """Merge the times of the models trained now into ``path``; models loaded from the cache keep their entry."""
+    recorded = json.loads(path.read_text()) if path.is_file() else {}
+    for r in results:
+        if r.status == "trained":
+            recorded[r.name] = {"seconds": round(r.seconds, 1), "cpu_seconds": round(r.cpu_seconds, 1)}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(dict(sorted(recorded.items())), indent=1) + "\n")
+    print(f"training times recorded in {path}")
 
 
 def _book_execute(args: argparse.Namespace) -> int:
@@ -549,6 +567,9 @@ def build_parser() -> argparse.ArgumentParser:
                        help="which model; 'book': every model the chapters load, several at a time")
     train.add_argument("--jobs", type=int, default=None,
                        help="with 'book': models trained at once, one process and one torch thread each (default 2)")
+    train.add_argument("--record", action="store_true",
+                       help="with 'book', in the book's repository: also merge the trained models' times into "
+                            "book/data/build_times/<profile>-training.json (what the intro's chapter map reads)")
     train.add_argument("--tokenizer", choices=["rvq", "vq"], default=None,
                        help="discord only: decode RVQ tokens (default; DisCoRD Table 1) or the VQ tokens that "
                             "generate --decoder discord needs")  # fmt: skip

@@ -63,20 +63,3 @@ def test_a_failing_probe_does_not_stop_the_command(empty_home, capsys, monkeypat
     cli._announce_training("smoke", ["tokenizer/rvq"])
     assert capsys.readouterr().err == ""
 
-
-def test_the_projection_ablation_shares_one_budget_and_reuses_chapter_05s_decoder_at_full_budget():
-    from types import SimpleNamespace
-
-    from motionlab.book_models import ABLATION_BUDGET, projection_config
-
-    tokenizer = SimpleNamespace(feature_dim=263, code_dim=64, downsample=4)
-    chapter_05 = projection_config("laptop", tokenizer)
-    ablation = {kind: projection_config("laptop", tokenizer, kind, ablation=True)
-                for kind in ("stacked", "repeat", "transposed")}  # fmt: skip
-    assert {c.train_steps for c in ablation.values()} == {round(chapter_05.train_steps * ABLATION_BUDGET["laptop"])}
-    assert all(0 <= c.warmup_steps < c.train_steps for c in ablation.values())
-    assert projection_config("full", tokenizer, ablation=True) == projection_config("full", tokenizer)
-    laptop = {j.name for j in book_jobs("laptop")}
-    assert {"ablation/stacked", "ablation/repeat", "ablation/transposed"} <= laptop
-    full = {j.name for j in book_jobs("full")}
-    assert "ablation/stacked" not in full and {"ablation/repeat", "discord/rvq"} <= full  # trained once

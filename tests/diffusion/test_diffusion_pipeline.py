@@ -105,7 +105,7 @@ def loud_pipe() -> TextToMotion:
 
 
 def test_sample_tokens_passes_guidance_on_to_the_sampler(loud_pipe):
-    lengths = [16, 24, 20]
+    lengths = [16, 20, 24]  # in length order: the pipeline samples them in this order too
     kw = dict(num_steps=4, guidance_scale=4.0)
     feats = loud_pipe.encode_texts(CAPTIONS)
     ids = {}
@@ -123,6 +123,21 @@ def test_sample_tokens_passes_guidance_on_to_the_sampler(loud_pipe):
     assert [m.shape for m in motions] == [(n, 263) for n in lengths]
     with pytest.raises(ValueError, match="guidance_on"):
         loud_pipe.generate(CAPTIONS, lengths, seed=0, guidance_on="logits", **kw)
+
+
+def test_sample_tokens_batches_texts_by_length_and_answers_in_request_order(loud_pipe):
+    lengths, order = [24, 8, 16], [1, 2, 0]  # shortest first
+    kw = dict(num_steps=4, guidance_scale=2.0)
+    ids = loud_pipe.sample_tokens(CAPTIONS, lengths, generator=torch.Generator().manual_seed(0), batch_size=2, **kw)
+    assert [int((row >= 0).sum()) for row in ids] == [n // 4 for n in lengths]
+    generator, rows = torch.Generator().manual_seed(0), []
+    for batch in ([1, 2], [0]):  # what the pipeline does: lengths 8 and 16 together, then 24 alone
+        feats = loud_pipe.encode_texts([CAPTIONS[i] for i in batch])
+        rows += list(sample(loud_pipe.model, loud_pipe.transitions, feats.tokens, feats.padding_mask,
+                            lengths=[lengths[i] // 4 for i in batch], generator=generator, **kw))  # fmt: skip
+    for i, row in zip(order, rows):
+        n = lengths[i] // 4
+        assert torch.equal(ids[i, :n], row[:n])
 
 
 def test_generate_with_tokens_returns_the_decoded_tokens_and_the_recorder_keeps_them(loud_pipe):

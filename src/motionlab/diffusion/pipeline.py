@@ -103,7 +103,7 @@ class TextToMotion:
         num_steps: int | None = None,
         top_p: float | None = None,
         top_k: int | None = None,
-        batch_size: int = 128,
+        batch_size: int = 32,
     ) -> torch.LongTensor:
         """Token ids ``(B, max L)`` for each text, ``L = frames / 4``, padded with −1 (on CPU).
 
@@ -111,7 +111,9 @@ class TextToMotion:
         ``"x0"`` on p_θ(x_0 | x_t) (VQ-Diffusion's code) or ``"posterior"`` on p_θ(x_{t-1} | x_t) (Eq. 9 as
         printed). ``num_steps`` None runs all T steps (ancestral), fewer skip steps with exact posterior jumps;
         ``top_p`` / ``top_k`` truncate p_θ(x_0 | x_t) at every step. Texts are sampled ``batch_size`` at a
-        time, in order, from the one ``generator``.
+        time, grouped by length (shortest first) so that a batch is padded little, all from the one ``generator``:
+        the network runs on every padded position, and in one batch of HumanML3D-like lengths (40–196 frames)
+        about 40% of the positions are padding.
         """
         texts = check_texts(texts)
         lengths = check_lengths(lengths_in_frames, len(texts))
@@ -123,13 +125,15 @@ class TextToMotion:
         self.model.eval()
         tokens = [n // FRAMES_PER_TOKEN for n in lengths]
         out = torch.full((len(texts), max(tokens)), -1, dtype=torch.long)
+        order = sorted(range(len(texts)), key=lambda i: tokens[i])  # stable: equal lengths keep their order
         for s in range(0, len(texts), batch_size):
-            feats = self.encode_texts(texts[s : s + batch_size])
-            chunk = tokens[s : s + batch_size]
+            rows = order[s : s + batch_size]
+            feats = self.encode_texts([texts[i] for i in rows])
+            chunk = [tokens[i] for i in rows]
             ids = sample(self.model, self.transitions, feats.tokens, feats.padding_mask, lengths=chunk,
                          generator=generator, num_steps=num_steps, guidance_scale=scale,
                          guidance_on=guidance_on, top_p=top_p, top_k=top_k)  # fmt: skip
-            out[s : s + len(chunk), : ids.shape[1]] = ids.cpu()
+            out[rows, : ids.shape[1]] = ids.cpu()
         return out
 
     @torch.no_grad()

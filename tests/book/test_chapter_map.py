@@ -1,0 +1,61 @@
+"""The intro's chapter map: which models each chapter loads, and the measured times it shows."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import yaml
+
+from motionlab.book_models import CHAPTER_MODELS, book_jobs, chapter_costs
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _toc_chapters() -> list[str]:
+    toc = yaml.safe_load((ROOT / "book" / "_toc.yml").read_text())
+    files = [entry["file"] for part in toc["parts"] for entry in part["chapters"]]
+    return [Path(f).name for f in files if f.startswith("notebooks/")]
+
+
+def test_every_chapter_names_its_models_and_every_model_serves_a_chapter():
+    assert list(CHAPTER_MODELS) == _toc_chapters()
+    for profile in ("smoke", "laptop"):
+        jobs = {job.name for job in book_jobs(profile)}
+        loaded = {m for models in CHAPTER_MODELS.values() for m in models}
+        assert loaded <= jobs, sorted(loaded - jobs)
+        assert jobs <= loaded, f"trained but loaded by no chapter: {sorted(jobs - loaded)}"
+
+
+def test_a_model_is_charged_to_the_first_chapter_that_loads_it():
+    training = {"data": {"cpu_seconds": 60}, "tokenizer/vq": {"cpu_seconds": 600},
+                "tokenizer/rvq": {"cpu_seconds": 300}, "evaluator": {"cpu_seconds": 120}}  # fmt: skip
+    execution = {"01_motion_data": {"seconds": 30}, "02_vector_quantization": {"seconds": 90},
+                 "06_sjpe": {"seconds": 200}}  # fmt: skip
+    costs = chapter_costs(training, execution)
+    assert costs == {"01_motion_data": (90, 30), "02_vector_quantization": (990, 90), "06_sjpe": (320, 200)}
+
+
+def test_the_intro_shows_the_recorded_laptop_times():
+    times = ROOT / "book" / "data" / "build_times"
+    assert (times / "laptop.json").is_file() and (times / "laptop-training.json").is_file(), (
+        "record a measured laptop build: train book --record, book execute --record"
+    )
+    check = subprocess.run([sys.executable, str(ROOT / "tools" / "chapter_map.py"), "--check"], capture_output=True,
+                           text=True)  # fmt: skip
+    assert check.returncode == 0, check.stderr
+    intro = (ROOT / "book" / "intro.md").read_text()
+    assert "| # | chapter | builds | needs | cold / warm (min) |" in intro
+
+
+def test_recording_training_times_keeps_the_entries_of_cached_models(tmp_path):
+    from motionlab.cli import _record_training
+    from motionlab.train.plan import JobResult
+
+    path = tmp_path / "laptop-training.json"
+    _record_training(path, [JobResult("data", "trained", 70.0, 65.0), JobResult("evaluator", "trained", 200, 190)])
+    _record_training(path, [JobResult("data", "cached"), JobResult("evaluator", "trained", 150.04, 140.06)])
+    assert json.loads(path.read_text()) == {"data": {"seconds": 70.0, "cpu_seconds": 65.0},
+                                            "evaluator": {"seconds": 150.0, "cpu_seconds": 140.1}}  # fmt: skip
