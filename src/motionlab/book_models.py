@@ -173,9 +173,9 @@ CHAPTER_MODELS: dict[str, tuple[str, ...]] = {
 def chapter_costs(training: dict[str, dict], execution: dict[str, dict]) -> dict[str, tuple[float, float]]:
     """``{chapter: (cold, warm)}`` in seconds, in book order, from recorded build times.
 
-    ``training`` maps a model to its record (``cpu_seconds``), ``execution`` a chapter to its (``seconds``).
-    Warm is the chapter's execution with every model cached; cold adds the training CPU time of the models that
-    no earlier chapter loads (what reading the book in order from an empty cache costs on one core).
+    ``training`` maps a model to its record, ``execution`` a chapter to its; both give wall ``seconds`` (a job
+    or chapter runs on one core of its own). Warm is the chapter's execution with every model cached; cold adds
+    the training of the models that no earlier chapter loads (reading the book in order from an empty cache).
     """
     seen: set[str] = set()
     costs = {}
@@ -185,7 +185,7 @@ def chapter_costs(training: dict[str, dict], execution: dict[str, dict]) -> dict
         new = [m for m in models if m not in seen]
         seen.update(models)
         warm = float(execution[chapter]["seconds"])
-        costs[chapter] = (warm + sum(float(training.get(m, {}).get("cpu_seconds", 0.0)) for m in new), warm)
+        costs[chapter] = (warm + sum(float(training.get(m, {}).get("seconds", 0.0)) for m in new), warm)
     return costs
 
 

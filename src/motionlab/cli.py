@@ -178,8 +178,11 @@ def _book_execute(args: argparse.Namespace) -> int:
     print(f"executing {len(chapters)} chapters ({profile}), {args.jobs} at a time -> {out_dir}", flush=True)
     start = time.monotonic()
     last = {c.stem for c in chapters if runner.runs_last(c)}  # summaries that read the others' results
+    from .paths import cache_dir
+
+    fingerprint = None if args.force else runner.build_fingerprint(profile, cache_dir())
     runs = runner.execute_chapters(chapters, out_dir / "notebooks", jobs=args.jobs, previous=previous, last=last,
-                                   stall_s=args.stall_seconds)  # fmt: skip
+                                   stall_s=args.stall_seconds, fingerprint=fingerprint)  # fmt: skip
     record = runner.timings_record(runs, profile, time.monotonic() - start)
     if not args.chapters:
         timings_path.write_text(json.dumps(record, indent=1))
@@ -592,6 +595,9 @@ def build_parser() -> argparse.ArgumentParser:
                          help="run profile (default: $MOTIONLAB_PROFILE or laptop)")  # fmt: skip
     execute.add_argument("--jobs", type=int, default=2, help="chapters executed at once (default 2)")
     execute.add_argument("--chapters", nargs="+", default=None, help="only these chapters (no staging)")
+    execute.add_argument("--force", action="store_true",
+                         help="execute every chapter, also those whose notebook, library and models are unchanged "
+                              "since their last successful execution (kept by default)")
     execute.add_argument("--root", default=".", help="the book's repository (default: the current folder)")
     execute.add_argument("--stall-seconds", type=float, default=180.0,
                          help="a running cell whose kernel sends nothing and uses no CPU this long is restarted")

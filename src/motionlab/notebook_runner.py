@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import asyncio
 import atexit
+import hashlib
 import json
 import multiprocessing
 import shutil
@@ -58,6 +59,8 @@ class ChapterRun:
     events: list[str] = field(default_factory=list)  # stalls, timeouts, restarts
     error: str = ""
     cell_seconds: dict[str, float] = field(default_factory=dict)  # cell id -> seconds (last attempt)
+    fingerprint: str = ""  # of everything its outputs depend on (see build_fingerprint)
+    reused: bool = False  # up to date: the earlier execution was kept
 
 
 class ChapterStalled(RuntimeError):
@@ -224,6 +227,30 @@ def _cell_seconds(nb) -> dict[str, float]:
 
 
 # -- the book ------------------------------------------------------------------------------------------------------
+def build_fingerprint(profile: str, home: str | Path) -> str:
+    """A digest of what every chapter's outputs depend on besides its own source.
+
+    The library's files (unlike Jupyter Book's cache, which ignores them), the profile, and the model cache of
+    that profile (names, sizes and modification times: a retrained model changes it). A chapter whose notebook
+    and this digest are unchanged since it last executed successfully gives the same outputs again.
+    """
+    digest = hashlib.sha256(profile.encode())
+    package = Path(__file__).resolve().parent
+    for path in sorted(package.rglob("*")):
+        if path.is_file() and "__pycache__" not in path.parts:
+            digest.update(str(path.relative_to(package)).encode() + b"\0" + path.read_bytes())
+    home = Path(home)
+    for path in sorted([*home.glob(f"models/*/{profile}/**/*"), *home.glob("data/**/*")]):
+        if path.is_file():
+            stat = path.stat()
+            digest.update(f"{path.relative_to(home)}:{stat.st_size}:{stat.st_mtime_ns}".encode())
+    return digest.hexdigest()
+
+
+def _chapter_fingerprint(source: Path, fingerprint: str) -> str:
+    return hashlib.sha256(fingerprint.encode() + source.read_bytes()).hexdigest()
+
+
 def _execute_star(args: tuple) -> ChapterRun:
     source, out_path, previous, stall_s, attempts = args
     return execute_chapter(source, out_path, previous=previous, stall_s=stall_s, attempts=attempts,
@@ -251,13 +278,17 @@ def execute_chapters(
     last: Collection[str] = (),
     stall_s: float = STALL_S,
     attempts: int = ATTEMPTS,
+    fingerprint: str | None = None,
     out=None,
 ) -> list[ChapterRun]:
     """Execute ``sources`` into ``out_dir`` (same file names), ``jobs`` at a time, longest first.
 
-    ``previous`` is an earlier timings file (chapter -> {"seconds", "cells"}): it orders the chapters and sets
-    the per-cell timeouts. Chapters named in ``last`` start only when all the others have ended (e.g. a summary
-    that reads what the others recorded). Prints one line per chapter as it ends.
+    ``previous`` is an earlier timings file (chapter -> {"seconds", "cells", ...}): it orders the chapters and
+    sets the per-cell timeouts. Chapters named in ``last`` start only when all the others have ended (e.g. a
+    summary that reads what the others recorded). With a ``fingerprint`` (:func:`build_fingerprint`), a chapter
+    whose notebook and fingerprint match its last successful execution, whose output is still in ``out_dir``,
+    is kept instead of executed again (a ``last`` chapter only if no other chapter executed). Prints one line
+    per chapter as it ends.
     """
     out = out or sys.stdout
     if jobs < 1:
@@ -271,6 +302,29 @@ def execute_chapters(
     def longest_first(paths) -> list[Path]:  # unknown chapters count as long
         return sorted(paths, key=lambda p: -previous.get(p.stem, {}).get("seconds", 1e9))
 
+    def up_to_date(src: Path) -> ChapterRun | None:
+        before = previous.get(src.stem, {})
+        if fingerprint is None or not (out_dir / src.name).is_file() or before.get("status") != "ok":
+            return None
+        mark = _chapter_fingerprint(src, fingerprint)
+        if before.get("fingerprint") != mark:
+            return None
+        return ChapterRun(src.stem, "ok", float(before.get("seconds", 0.0)), int(before.get("attempts", 1)),
+                          cell_seconds=dict(before.get("cells", {})), fingerprint=mark, reused=True)  # fmt: skip
+
+    def report(run: ChapterRun) -> None:
+        runs.append(run)
+        elapsed = time.monotonic() - t0
+        if run.reused:
+            print(f"[{int(elapsed // 60):3d}:{int(elapsed % 60):02d}] {run.name}: up to date (notebook, library and "
+                  "models unchanged since it last ran)", file=out, flush=True)  # fmt: skip
+            return
+        note = f" after {run.attempts} attempts" if run.attempts > 1 else ""
+        print(f"[{int(elapsed // 60):3d}:{int(elapsed % 60):02d}] {run.name}: {run.status} in "
+              f"{run.seconds / 60:.1f} min{note}", file=out, flush=True)  # fmt: skip
+        if run.status != "ok":
+            print(run.error, file=out, flush=True)
+
     paths = [Path(s) for s in sources]
     phases = [longest_first(p for p in paths if p.stem not in last), longest_first(p for p in paths if p.stem in last)]
     context = multiprocessing.get_context("spawn")
@@ -278,15 +332,18 @@ def execute_chapters(
         jobs, mp_context=context, initializer=interrupt_when_orphaned
     ) as pool:
         for phase in phases:
-            for future in as_completed([pool.submit(_execute_star, task(src)) for src in phase]):
+            executed = any(not r.reused for r in runs)
+            kept = {src: up_to_date(src) for src in phase if not (executed and src.stem in last)}
+            for run in filter(None, kept.values()):
+                report(run)
+            todo = [src for src in phase if kept.get(src) is None]
+            # fingerprinted before they run: a notebook edited meanwhile must not look up to date next time
+            marks = {src: _chapter_fingerprint(src, fingerprint) if fingerprint else "" for src in todo}
+            futures = {pool.submit(_execute_star, task(src)): src for src in todo}
+            for future in as_completed(futures):
                 run = future.result()
-                runs.append(run)
-                elapsed = time.monotonic() - t0
-                note = f" after {run.attempts} attempts" if run.attempts > 1 else ""
-                print(f"[{int(elapsed // 60):3d}:{int(elapsed % 60):02d}] {run.name}: {run.status} in "
-                      f"{run.seconds / 60:.1f} min{note}", file=out, flush=True)  # fmt: skip
-                if run.status != "ok":
-                    print(run.error, file=out, flush=True)
+                run.fingerprint = marks[futures[future]]
+                report(run)
     order = {p.stem: i for i, p in enumerate(paths)}
     return sorted(runs, key=lambda r: order[r.name])
 
@@ -296,7 +353,8 @@ def timings_record(runs: Sequence[ChapterRun], profile: str, wall_seconds: float
     return {
         "profile": profile,
         "wall_seconds": wall_seconds,
-        **{r.name: {"seconds": r.seconds, "attempts": r.attempts, "events": r.events, "cells": r.cell_seconds}
+        **{r.name: {"seconds": r.seconds, "attempts": r.attempts, "events": r.events, "cells": r.cell_seconds,
+                    "status": r.status, "fingerprint": r.fingerprint}
            for r in runs},
     }  # fmt: skip
 

@@ -30,8 +30,8 @@ def test_every_chapter_names_its_models_and_every_model_serves_a_chapter():
 
 
 def test_a_model_is_charged_to_the_first_chapter_that_loads_it():
-    training = {"data": {"cpu_seconds": 60}, "tokenizer/vq": {"cpu_seconds": 600},
-                "tokenizer/rvq": {"cpu_seconds": 300}, "evaluator": {"cpu_seconds": 120}}  # fmt: skip
+    training = {"data": {"seconds": 60}, "tokenizer/vq": {"seconds": 600}, "tokenizer/rvq": {"seconds": 300},
+                "evaluator": {"seconds": 120}}  # fmt: skip
     execution = {"01_motion_data": {"seconds": 30}, "02_vector_quantization": {"seconds": 90},
                  "06_sjpe": {"seconds": 200}}  # fmt: skip
     costs = chapter_costs(training, execution)

@@ -103,3 +103,43 @@ def test_the_summary_chapter_runs_after_the_others():
 
     notebooks = Path(__file__).resolve().parents[2] / "notebooks"
     assert [p.stem for p in sorted(notebooks.glob("*.ipynb")) if runs_last(p)] == ["99_what_reproduces"]
+
+
+def test_an_unchanged_chapter_is_kept_and_a_changed_one_executes_again(tmp_path):
+    counter = tmp_path / "executions"
+    count = (f"import pathlib\np = pathlib.Path({str(counter)!r})\n"
+             "p.write_text(p.read_text() + 'x' if p.exists() else 'x')")
+    chapter = write_notebook(tmp_path / "a.ipynb", count)
+    summary = write_notebook(tmp_path / "z.ipynb", "1 + 1")
+    out, log = tmp_path / "out", open(tmp_path / "log", "w")
+
+    def build(fingerprint="lib-1", **kw):
+        runs = execute_chapters([chapter, summary], out, jobs=1, last={"z"}, fingerprint=fingerprint, out=log, **kw)
+        return runs, timings_record(runs, "smoke", 1.0)
+
+    runs, record = build()
+    assert counter.read_text() == "x" and not any(r.reused for r in runs) and record["a"]["fingerprint"]
+    runs, record = build(previous=record)  # nothing changed: nothing executes, the timings are carried over
+    assert counter.read_text() == "x" and all(r.reused and r.status == "ok" for r in runs)
+    assert record["a"]["seconds"] > 0 and record["a"]["cells"]
+    runs, record = build("lib-2", previous=record)  # the library or the models changed
+    assert counter.read_text() == "xx" and not any(r.reused for r in runs)  # the summary follows an executed chapter
+    write_notebook(chapter, count, "2 + 2")  # the notebook changed
+    runs, _ = build("lib-2", previous=record)
+    assert counter.read_text() == "xxx" and [r.reused for r in runs] == [False, False]
+    (out / "a.ipynb").unlink()  # the executed notebook is gone
+    runs, _ = build("lib-2", previous=timings_record(runs, "smoke", 1.0))
+    assert counter.read_text() == "xxxx" and [r.reused for r in runs] == [False, False]
+
+
+def test_the_fingerprint_follows_the_profile_and_the_model_cache(tmp_path):
+    from motionlab.notebook_runner import build_fingerprint
+
+    model = tmp_path / "models" / "vq" / "smoke" / "abc" / "model.safetensors"
+    model.parent.mkdir(parents=True)
+    model.write_bytes(b"weights")
+    first = build_fingerprint("smoke", tmp_path)
+    assert build_fingerprint("smoke", tmp_path) == first
+    assert build_fingerprint("laptop", tmp_path) != first
+    model.write_bytes(b"retrained weights")
+    assert build_fingerprint("smoke", tmp_path) != first
