@@ -466,7 +466,8 @@ def evaluate_reconstruction(dataset, config: ReconstructionConfig | None = None,
 
     The ground truth is each clip cropped to whole tokens (raw features); FID compares evaluator embeddings
     of the reconstructions with those of the ground truth. The feed-forward row is one run (deterministic);
-    the DisCoRD row repeats ``config.repeats`` times, repeat r decoding from seed ``repeat_seed(seed, r)``.
+    the DisCoRD row repeats ``config.repeats`` times, repeat r decoding from seed ``repeat_seed(seed, r)``, except
+    at sampling temperature 0, where every seed decodes the same motion and one run is the whole distribution.
     """
     from motionlab.flow.reconstruction import decode_clips, reconstruction_scores
     from motionlab.metrics import ClipJoints
@@ -495,6 +496,7 @@ def evaluate_reconstruction(dataset, config: ReconstructionConfig | None = None,
     feed_forward = f"{name} decoder"
     _phase(f"scoring the {feed_forward}")
     rows = {feed_forward: _once(score(decode_clips(normalized, tokenizer)))}
+    deterministic = [feed_forward]
     notes = ["The feed-forward decoder is deterministic: one run, no interval."]
     if cfg.decoder == "discord":
         from motionlab.flow import discord_config, train_or_load_discord
@@ -507,19 +509,26 @@ def evaluate_reconstruction(dataset, config: ReconstructionConfig | None = None,
                                      progress=progress)  # fmt: skip
         sampling = {k: v for k, v in chosen.items() if k in FLOW_SAMPLING_OPTIONS}
         flow = flow.with_sampling(**sampling) if sampling else flow
+        # Temperature 0 starts every decode from the same zero noise: every seed decodes the same motion.
+        seeded = flow.config.temperature > 0
+        repeats = cfg.repeats if seeded else 1
         runs = []
-        with _bar(cfg.repeats, "DisCoRD repeats", progress) as bar:
-            for r in range(cfg.repeats):
-                _phase(f"DisCoRD repeat {r + 1} of {cfg.repeats}")
+        with _bar(repeats, "DisCoRD repeats", progress) as bar:
+            for r in range(repeats):
+                _phase(f"DisCoRD repeat {r + 1} of {repeats}")
                 recon = decode_clips(normalized, tokenizer, flow, steps=cfg.steps, solver=cfg.solver,
                                      seed=repeat_seed(cfg.seed, r))  # fmt: skip
                 runs.append(score(recon))
                 bar.update()
-        rows[f"{name} tokens + DisCoRD ({_flow_label(flow, cfg.steps, cfg.solver)}{_flow_options_label(flow)})"] = (
-            summarize_runs(runs))
-        notes.append(f"DisCoRD: {cfg.repeats} sampling seeds.")
+        flow_row = f"{name} tokens + DisCoRD ({_flow_label(flow, cfg.steps, cfg.solver)}{_flow_options_label(flow)})"
+        rows[flow_row] = summarize_runs(runs) if seeded else _once(runs[0])
+        if seeded:
+            notes.append(f"DisCoRD: {cfg.repeats} sampling seeds.")
+        else:
+            notes.append("DisCoRD at temperature 0 decodes every seed to the same motion: one run, no interval.")
+            deterministic.append(flow_row)
     return _table("reconstruction", dataset, profile, cfg, {"clips": len(clips)}, RECONSTRUCTION_METRICS, rows,
-                  deterministic=(feed_forward,), notes=[" ".join(notes)])  # fmt: skip
+                  deterministic=tuple(deterministic), notes=[" ".join(notes)])  # fmt: skip
 
 
 def evaluate_t2m(dataset, config: TextToMotionConfig | None = None, profile: str | None = None, *,

@@ -114,7 +114,8 @@ def test_reconstruction_chooses_the_flow_decoders_parameterisation_and_sampling(
     assert list(read(x)["rows"])[1] == flow_x
     assert read(x)["config"]["prediction"] == "x" and read(x)["config"]["temperature"] is None
     cold_row = read(cold)["rows"]["RVQ-VAE tokens + DisCoRD (2 euler steps, x-prediction, temperature 0, last step x̂1)"]
-    assert cold_row["mpjpe_mm"]["ci95"] == 0.0  # no start noise: both seeds decode the same motion
+    assert cold_row["mpjpe_mm"]["ci95"] == 0.0 and cold_row["mpjpe_mm"]["n"] == 1  # no start noise: decoded once
+    assert "temperature 0 decodes every seed to the same motion" in " ".join(read(cold)["notes"])
     capsys.readouterr()
 
 
