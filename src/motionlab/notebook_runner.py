@@ -315,13 +315,13 @@ def execute_chapters(
     def report(run: ChapterRun) -> None:
         runs.append(run)
         elapsed = time.monotonic() - t0
+        stamp = f"[{int(elapsed // 60):3d}:{int(elapsed % 60):02d}] {run.name}:"
         if run.reused:
-            print(f"[{int(elapsed // 60):3d}:{int(elapsed % 60):02d}] {run.name}: up to date (notebook, library and "
-                  "models unchanged since it last ran)", file=out, flush=True)  # fmt: skip
+            print(f"{stamp} up to date (notebook, library and models unchanged since it last ran)", file=out,
+                  flush=True)  # fmt: skip
             return
         note = f" after {run.attempts} attempts" if run.attempts > 1 else ""
-        print(f"[{int(elapsed // 60):3d}:{int(elapsed % 60):02d}] {run.name}: {run.status} in "
-              f"{run.seconds / 60:.1f} min{note}", file=out, flush=True)  # fmt: skip
+        print(f"{stamp} {run.status} in {run.seconds / 60:.1f} min{note}", file=out, flush=True)
         if run.status != "ok":
             print(run.error, file=out, flush=True)
 

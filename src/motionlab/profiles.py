@@ -37,4 +37,3 @@ def env_threads() -> int | None:
     if threads < 1:
         raise ValueError(f"MOTIONLAB_THREADS must be a positive int, got {value!r}")
     return threads
-

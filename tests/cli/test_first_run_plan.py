@@ -62,4 +62,3 @@ def test_a_failing_probe_does_not_stop_the_command(empty_home, capsys, monkeypat
     monkeypatch.setattr("motionlab.data.load_dataset", lambda *a, **k: None)  # a broken dataset: the command says so
     cli._announce_training("smoke", ["tokenizer/rvq"])
     assert capsys.readouterr().err == ""
-
