@@ -509,8 +509,7 @@ def evaluate_reconstruction(dataset, config: ReconstructionConfig | None = None,
                                      progress=progress)  # fmt: skip
         sampling = {k: v for k, v in chosen.items() if k in FLOW_SAMPLING_OPTIONS}
         flow = flow.with_sampling(**sampling) if sampling else flow
-        # Temperature 0 starts every decode from the same zero noise: every seed decodes the same motion.
-        seeded = flow.config.temperature > 0
+        seeded = not flow.deterministic  # at temperature 0 every seed decodes the same motion
         repeats = cfg.repeats if seeded else 1
         runs = []
         with _bar(repeats, "DisCoRD repeats", progress) as bar:

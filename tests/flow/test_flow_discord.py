@@ -355,3 +355,14 @@ def test_smoke_profile_trains_with_the_shared_trainer():
     history = Trainer(dec, discord_loss_fn, batch_fn, cfg.train_config(log_every=10), progress=False).fit()
     assert history[-1]["loss"] < 0.8 * history[0]["loss"]
     assert dec.decode(pool_ids[:2]).shape == (2, cfg.window, D)
+
+
+
+def test_a_decoder_at_temperature_0_is_deterministic_and_says_so():
+    decoder = DisCoRDDecoder(discord_config("smoke", feature_dim=263, code_dim=16, q=4))
+    codes = torch.randn(1, 4, 16, generator=torch.Generator().manual_seed(0))  # (B, N, d)
+    assert not decoder.deterministic  # the smoke profile samples at temperature 1, like the paper
+    assert not torch.equal(decoder.sample(codes, seed=1), decoder.sample(codes, seed=2))
+    cold = decoder.with_sampling(temperature=0.0)
+    assert cold.deterministic
+    assert torch.equal(cold.sample(codes, seed=1), cold.sample(codes, seed=2))

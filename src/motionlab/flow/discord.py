@@ -52,6 +52,11 @@ class DisCoRDDecoder(nn.Module):
 
     SAMPLING_FIELDS = ("sample_steps", "solver", "spacing", "temperature", "final_prediction")
 
+    @property
+    def deterministic(self) -> bool:
+        """Whether its default decode ignores the seed: temperature 0 starts every decode from the same zero noise."""
+        return self.config.temperature == 0
+
     def with_sampling(self, **options: Any) -> DisCoRDDecoder:
         """The same weights with other sampling defaults (``sample_steps``, ``solver``, ``spacing``,
         ``temperature``, ``final_prediction``); shares parameters with ``self`` and its tokenizer."""
