@@ -31,11 +31,12 @@ from .train.cache import NotCached, cache_probe
 from .train.plan import Job
 
 # Training CPU seconds per model on one core of the reference machine (2 cores, two 1-thread workers), from
-# `motionlab train book` (laptop: a tokenizer step 0.26 s x 2,000, a DisCoRD step 0.54 s x 1,150, a diffusion step
-# 0.34 s x 800); they drive the plan line and the progress estimates, nothing else.
+# `motionlab train book --record` (book/data/build_times/laptop-training.json; laptop: a tokenizer step 0.25 s x 2,000,
+# a DisCoRD step 0.475 s x 1,150, a diffusion step 0.32 s x 800); they drive the plan line and the progress
+# estimates, nothing else.
 ESTIMATES_S: dict[str, dict[str, float]] = {
     "smoke": {"data": 8, "tokenizer": 10, "toy_flow": 5, "evaluator": 10, "discord": 10, "t2m": 15},
-    "laptop": {"data": 150, "tokenizer": 520, "toy_flow": 90, "evaluator": 200, "discord": 620, "t2m": 340},
+    "laptop": {"data": 90, "tokenizer": 510, "toy_flow": 60, "evaluator": 185, "discord": 560, "t2m": 260},
     "full": {"data": 1500, "tokenizer": 36_000, "toy_flow": 300, "evaluator": 36_000, "discord": 360_000,
              "t2m": 180_000},
 }  # fmt: skip

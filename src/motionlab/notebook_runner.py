@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Any
 
 from .profiles import env_threads
-from .workers import interrupt_when_orphaned, native_threads_for_children
+from .workers import elapsed_stamp, interrupt_when_orphaned, native_threads_for_children
 
 STALL_S = 180.0  # silent and idle this long while a cell runs: the kernel is stalled
 ATTEMPTS = 3
@@ -314,8 +314,7 @@ def execute_chapters(
 
     def report(run: ChapterRun) -> None:
         runs.append(run)
-        elapsed = time.monotonic() - t0
-        stamp = f"[{int(elapsed // 60):3d}:{int(elapsed % 60):02d}] {run.name}:"
+        stamp = f"{elapsed_stamp(time.monotonic() - t0)} {run.name}:"
         if run.reused:
             print(f"{stamp} up to date (notebook, library and models unchanged since it last ran)", file=out,
                   flush=True)  # fmt: skip

@@ -13,6 +13,11 @@ from contextlib import contextmanager
 NATIVE_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
+def elapsed_stamp(seconds: float) -> str:
+    """``[mm:ss]`` since a pool started: the prefix of every progress line the pools print."""
+    return f"[{int(seconds // 60):3d}:{int(seconds % 60):02d}]"
+
+
 @contextmanager
 def native_threads_for_children(threads: int) -> Iterator[None]:
     """Inside the block, child processes start with ``threads`` OpenMP/BLAS threads (values the user set win).

@@ -132,3 +132,43 @@ def test_bad_sampling_inputs(setup):
         sample(model, tr, text, lengths=[3, 3, 3], generator=g, timesteps=[10, 5, 5, 0])
     with pytest.raises(ValueError, match="timesteps"):
         sample(model, tr, text, lengths=[3, 3, 3], generator=g, timesteps=[9, 0])
+
+
+@pytest.mark.parametrize("guided", [False, True])
+def test_network_runs_on_length_groups_with_the_same_result(setup, guided):
+    """Rows grouped by length and cropped give what one call over the padded batch gives at real positions."""
+    from motionlab.diffusion import sampling
+
+    model, tr, _ = setup
+    g = torch.Generator().manual_seed(5)
+    lengths = torch.tensor([3, 9, 1, 6, 9, 2, 5])
+    B, L = len(lengths), int(lengths.max()) + 2  # two columns of padding even in the longest row
+    padding = torch.arange(L)[None, :] >= lengths[:, None]
+    x = torch.randint(0, K + 1, (B, L), generator=g).masked_fill(padding, K)
+    text = torch.randn(B, 4, D_TEXT, generator=g)
+    text_pad = torch.zeros(B, 4, dtype=torch.bool)
+    text_pad[0, 2:] = True
+    kw = dict(text_padding_mask=text_pad, padding_mask=padding, cross_mask=None, self_mask=None)
+    with torch.no_grad():
+        whole = sampling._network_log_p_x0(model, x, 7, text, guided, **kw)
+        for rows in (3, 32):  # several groups; one group cropped to the longest row
+            grouped = sampling._model_log_p_x0(model, x, 7, text, guided, rows_per_call=rows, **kw)
+            for a, b in zip(grouped, whole):
+                if b is None:
+                    assert a is None
+                    continue
+                torch.testing.assert_close(a[~padding], b[~padding], atol=1e-5, rtol=1e-5)
+                assert torch.allclose(a[padding].exp().sum(-1), torch.ones(int(padding.sum())))
+
+
+def test_grouped_sampling_keeps_every_row_its_own_length(setup, monkeypatch):
+    from motionlab.diffusion import sampling
+
+    model, tr, _ = setup
+    lengths = [4, 1, 7, 2, 7, 3]
+    text = torch.randn(len(lengths), 4, D_TEXT, generator=torch.Generator().manual_seed(3))
+    monkeypatch.setattr(sampling, "ROWS_PER_CALL", 2)
+    ids = sample(model, tr, text, lengths=lengths, generator=torch.Generator().manual_seed(0), num_steps=4,
+                 guidance_scale=2.0)  # fmt: skip
+    for row, n in zip(ids, lengths):
+        assert (row[:n] >= 0).all() and (row[:n] < K).all() and (row[n:] == -1).all()

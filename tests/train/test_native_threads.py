@@ -97,3 +97,11 @@ def _alive(pid: int) -> bool:
         return False
     status = open(f"/proc/{pid}/stat").read().split()[2] if os.path.exists(f"/proc/{pid}/stat") else "X"
     return status not in ("Z", "X")
+
+
+def test_elapsed_stamp_is_minutes_and_seconds():
+    from motionlab.workers import elapsed_stamp
+
+    assert elapsed_stamp(0) == "[  0:00]"
+    assert elapsed_stamp(61.9) == "[  1:01]"
+    assert elapsed_stamp(3600 + 5) == "[ 60:05]"

@@ -23,7 +23,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any, TextIO
 
-from ..workers import interrupt_when_orphaned, native_threads_for_children
+from ..workers import elapsed_stamp, interrupt_when_orphaned, native_threads_for_children
 from .progress import add_progress_hook, disable_bars
 
 _REPORT_EVERY_S = 2.0  # how often a worker forwards its step count
@@ -187,8 +187,7 @@ class _Scheduler:
                                         initargs=(self.queue, threads), max_tasks_per_child=1)  # fmt: skip
 
     def say(self, text: str) -> None:
-        elapsed = time.monotonic() - self.t0
-        print(f"[{int(elapsed // 60):3d}:{int(elapsed % 60):02d}] {text}", file=self.out, flush=True)
+        print(f"{elapsed_stamp(time.monotonic() - self.t0)} {text}", file=self.out, flush=True)
 
     def run(self, pending: list[Job]) -> None:
         with native_threads_for_children(self.threads):
