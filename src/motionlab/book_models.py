@@ -44,21 +44,38 @@ ESTIMATES_S: dict[str, dict[str, float]] = {
 
 # -- recipes: module-level so worker processes can unpickle them --------------------------------------------------
 # Every recipe takes the profile, the data seed and ``data`` (a dataset folder; None: the embedded dataset).
-@lru_cache(maxsize=4)  # the plan's cache checks share one loaded dataset
-def _dataset(profile: str, seed: int, data: str | None = None):
+@lru_cache(maxsize=4)
+def _dataset(profile: str, seed: int, data: str | None, home: str):
     from .data import load_dataset
 
     return load_dataset(data, profile=profile, seed=seed)
 
 
+def book_dataset(profile: str, seed: int = 0, data: str | None = None):
+    """The dataset the recipes train on, loaded once per process for each profile, seed, folder and cache root.
+
+    The plan's cache checks run every recipe, so they share one loaded dataset; a command that checks its plan
+    first and then does its work (``motionlab evaluate``, ``generate``, ``train``) uses that same instance.
+    :func:`forget_book_datasets` drops them (e.g. when the dataset's folder was rewritten meanwhile).
+    """
+    from .paths import cache_dir
+
+    return _dataset(profile, seed, data, str(cache_dir()))
+
+
+def forget_book_datasets() -> None:
+    """Drop the datasets :func:`book_dataset` holds: the next call reads its folder again."""
+    _dataset.cache_clear()
+
+
 def make_data(profile: str, seed: int, data: str | None = None) -> None:
-    _dataset(profile, seed, data)
+    book_dataset(profile, seed, data)
 
 
 def make_tokenizer(profile: str, seed: int, kind: str, data: str | None = None) -> None:
     from .tokenizers import tokenizer_for_dataset
 
-    tokenizer_for_dataset(kind, _dataset(profile, seed, data), profile)
+    tokenizer_for_dataset(kind, book_dataset(profile, seed, data), profile)
 
 
 def make_toy_flow(profile: str, seed: int, conditional: bool, data: str | None = None) -> None:
@@ -72,7 +89,7 @@ def make_toy_flow(profile: str, seed: int, conditional: bool, data: str | None =
 def make_evaluator(profile: str, seed: int, data: str | None = None) -> None:
     from .metrics.evaluator_training import load_or_train_evaluator
 
-    load_or_train_evaluator(_dataset(profile, seed, data), profile)
+    load_or_train_evaluator(book_dataset(profile, seed, data), profile)
 
 
 def make_discord(profile: str, seed: int, tokens: str, projection: str = "stacked", data: str | None = None,
@@ -80,7 +97,7 @@ def make_discord(profile: str, seed: int, tokens: str, projection: str = "stacke
     from .flow import train_or_load_discord
     from .tokenizers import tokenizer_for_dataset
 
-    dataset = _dataset(profile, seed, data)
+    dataset = book_dataset(profile, seed, data)
     tokenizer = tokenizer_for_dataset(tokens, dataset, profile)
     config = projection_config(profile, tokenizer, projection, seed, **(overrides or {}))
     train_or_load_discord(dataset, tokenizer, profile, config=config)
@@ -100,7 +117,8 @@ def make_text_to_motion(profile: str, seed: int, eta: float | None, training_see
                         data: str | None = None, distance: str = "l2_rank") -> None:  # fmt: skip
     from .diffusion import text_to_motion_for_dataset
 
-    text_to_motion_for_dataset(_dataset(profile, seed, data), profile, eta=eta, seed=training_seed, distance=distance)
+    dataset = book_dataset(profile, seed, data)
+    text_to_motion_for_dataset(dataset, profile, eta=eta, seed=training_seed, distance=distance)
 
 
 # -- the plan ------------------------------------------------------------------------------------------------------
@@ -205,5 +223,5 @@ def jobs_for(names: Sequence[str], profile: str | None = None, **kwargs) -> list
     return [job for name, job in jobs.items() if name in needed]
 
 
-__all__ = ["CHAPTER_MODELS", "ESTIMATES_S", "book_jobs", "chapter_costs", "is_cached", "jobs_for",
-           "projection_config"]
+__all__ = ["CHAPTER_MODELS", "ESTIMATES_S", "book_dataset", "book_jobs", "chapter_costs", "forget_book_datasets",
+           "is_cached", "jobs_for", "projection_config"]  # fmt: skip

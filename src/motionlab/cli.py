@@ -69,7 +69,6 @@ def _data_from_bvh(args: argparse.Namespace) -> int:
 
 
 def _train(args: argparse.Namespace) -> int:
-    from .data import load_dataset
     from .profiles import get_profile
     from .train.distributed import init_distributed
 
@@ -87,12 +86,13 @@ def _train(args: argparse.Namespace) -> int:
     _check_cache_writable()  # a read-only cache would fail only after the training
     ctx = init_distributed()  # a no-op unless launched by torchrun
     profile = get_profile(args.profile)
-    if ctx.is_main:
-        model_job = {"vq": "tokenizer/vq", "rvq": "tokenizer/rvq", "evaluator": "evaluator", "diffusion": "t2m/dynamic",
-                     "discord": f"discord/{args.tokenizer or 'rvq'}"}[args.model]  # fmt: skip
-        _announce_training(profile, [model_job], args.data, flow_options)
-    dataset = load_dataset(args.data, profile=profile)
-    model = _trained_model(args.model, dataset, profile, args.device, flow_options, args.tokenizer or "rvq")
+    model_job = {"vq": "tokenizer/vq", "rvq": "tokenizer/rvq", "evaluator": "evaluator", "diffusion": "t2m/dynamic",
+                 "discord": f"discord/{args.tokenizer or 'rvq'}"}[args.model]  # fmt: skip
+    with _probe_then_run():
+        if ctx.is_main:
+            _announce_training(profile, [model_job], args.data, flow_options)
+        dataset = _command_dataset(args.data, profile)
+        model = _trained_model(args.model, dataset, profile, args.device, flow_options, args.tokenizer or "rvq")
     n_params = sum(p.numel() for p in model.parameters())
     if ctx.is_main:
         print(f"{args.model} ({profile}, data {dataset.key}): {n_params / 1e6:.2f} M parameters, trained and cached")
@@ -124,6 +124,8 @@ def _train_book(args: argparse.Namespace, flow_options: dict) -> int:
         print("interrupted: finished models are cached; run the same command again to train the rest", file=sys.stderr)
         return 130
     print(results_table(results))
+    if (Path("book") / "_toc.yml").is_file():  # in the book's repository: beside the chapters' timings of a build
+        _record_training(Path("_build") / "executed" / profile / "training.json", results)
     if args.record:
         _record_training(record / f"{profile}-training.json", results)
     failed = [r.name for r in results if r.status in ("failed", "skipped")]
@@ -227,7 +229,6 @@ def _trained_model(name: str, dataset, profile: str, device: str | None, flow_op
 
 
 def _generate(args: argparse.Namespace) -> int:
-    from .data import load_dataset
     from .diffusion.pipeline import text_to_motion_for_dataset
     from .io import save_motion
     from .profiles import get_profile
@@ -243,14 +244,16 @@ def _generate(args: argparse.Namespace) -> int:
     profile = get_profile(args.profile)
     _check_generation_lengths(lengths, profile)
     _check_output(args.out, args.force, "--out")  # before any training or sampling
-    _announce_training(profile, ["t2m/dynamic"] + (["discord/vq"] if args.decoder == "discord" else []), args.data)
-    dataset = load_dataset(args.data, profile=profile)
-    pipe = text_to_motion_for_dataset(dataset, profile, device=args.device)
-    decoder = None
-    if args.decoder == "discord":
-        from .flow import train_or_load_discord
+    with _probe_then_run():
+        _announce_training(profile, ["t2m/dynamic"] + (["discord/vq"] if args.decoder == "discord" else []),
+                           args.data)  # fmt: skip
+        dataset = _command_dataset(args.data, profile)
+        pipe = text_to_motion_for_dataset(dataset, profile, device=args.device)
+        decoder = None
+        if args.decoder == "discord":
+            from .flow import train_or_load_discord
 
-        decoder = train_or_load_discord(dataset, pipe.tokenizer, profile, device=args.device)
+            decoder = train_or_load_discord(dataset, pipe.tokenizer, profile, device=args.device)
     if len(texts) == 1:
         features = pipe.generate(texts, lengths, seed=args.seed, decoder=decoder)[0]
     else:  # several actions: Two-Phase Sampling (M2D2M Algorithm 1)
@@ -275,6 +278,26 @@ def _announce_training(profile: str, models: list[str], data: str | None = None,
     if line:
         taste = "" if profile == "smoke" else "; for a quick taste instead, add --profile smoke (seconds per model)"
         print(f"note: {line}{taste}", file=sys.stderr, flush=True)
+
+
+@contextlib.contextmanager
+def _probe_then_run():
+    """Around a command's :func:`_announce_training` and its work: what the plan probe loaded (the dataset,
+    the cached models) is what the command uses, so nothing is read and verified twice."""
+    from .book_models import forget_book_datasets
+    from .train.cache import reuse_probed_models
+
+    forget_book_datasets()  # the dataset as it is now, not one an earlier call in this process left in memory
+    with reuse_probed_models():
+        yield
+
+
+def _command_dataset(data: str | None, profile: str):
+    """The command's dataset (seed 0, as ``load_dataset``'s default): inside :func:`_probe_then_run`, the
+    instance the plan probe loaded, else loaded now (as it is when the probe failed or was skipped)."""
+    from .book_models import book_dataset
+
+    return book_dataset(profile, 0, data)
 
 
 def _check_generation_lengths(lengths: list[int], profile: str) -> None:
@@ -341,7 +364,6 @@ def _convert(args: argparse.Namespace) -> int:
 
 
 def _evaluate(args: argparse.Namespace) -> int:
-    from .data import load_dataset
     from .evaluation import EVALUATORS, check_json_path, default_repeats, write_json
     from .profiles import get_profile
 
@@ -351,10 +373,11 @@ def _evaluate(args: argparse.Namespace) -> int:
         check_json_path(args.json, force=args.force)  # refuse before hours of work, not after
         _check_writable_folder(args.json.parent, "--json")
     _check_evaluation_size(config)
-    _announce_training(profile, _evaluation_models(args.task, config), args.data, _flow_overrides(config))
-    dataset = load_dataset(args.data, profile=profile)
-    with _phase_lines(not sys.stderr.isatty()):  # bars on a terminal, one line per phase in a log
-        table = EVALUATORS[args.task](dataset, config, profile, device=args.device, progress=sys.stderr.isatty())
+    with _probe_then_run():
+        _announce_training(profile, _evaluation_models(args.task, config), args.data, _flow_overrides(config))
+        dataset = _command_dataset(args.data, profile)
+        with _phase_lines(not sys.stderr.isatty()):  # bars on a terminal, one line per phase in a log
+            table = EVALUATORS[args.task](dataset, config, profile, device=args.device, progress=sys.stderr.isatty())
     print(table.header())
     print(table.to_markdown())
     if args.json is not None:
@@ -572,7 +595,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help="with 'book': models trained at once, one process and one torch thread each (default 2)")
     train.add_argument("--record", action="store_true",
                        help="with 'book', in the book's repository: also merge the trained models' times into "
-                            "book/data/build_times/<profile>-training.json (what the intro's chapter map reads)")
+                            "book/data/build_times/<profile>-training.json (what the intro's chapter map reads); every "
+                            "run there merges them into _build/executed/<profile>/training.json")
     train.add_argument("--tokenizer", choices=["rvq", "vq"], default=None,
                        help="discord only: decode RVQ tokens (default; DisCoRD Table 1) or the VQ tokens that "
                             "generate --decoder discord needs")  # fmt: skip

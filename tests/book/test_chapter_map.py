@@ -59,3 +59,21 @@ def test_recording_training_times_keeps_the_entries_of_cached_models(tmp_path):
     _record_training(path, [JobResult("data", "cached"), JobResult("evaluator", "trained", 150.04, 140.06)])
     assert json.loads(path.read_text()) == {"data": {"seconds": 70.0, "cpu_seconds": 65.0},
                                             "evaluator": {"seconds": 150.0, "cpu_seconds": 140.1}}  # fmt: skip
+
+
+def test_train_book_in_the_repository_keeps_its_times_beside_the_build(tmp_path, monkeypatch):
+    from motionlab import cli
+    from motionlab.train.plan import JobResult
+
+    (tmp_path / "book").mkdir()
+    (tmp_path / "book" / "_toc.yml").write_text("format: jb-book\n")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("MOTIONLAB_HOME", str(tmp_path / "home"))
+    monkeypatch.setattr("motionlab.book_models.book_jobs", lambda profile: [])
+    monkeypatch.setattr("motionlab.train.plan.run_plan",
+                        lambda plan, workers: [JobResult("data", "trained", 80.0, 6.0)])  # fmt: skip
+    args = cli.build_parser().parse_args(["train", "book", "--profile", "smoke"])
+    assert cli._train_book(args, {}) == 0
+    kept = json.loads((tmp_path / "_build" / "executed" / "smoke" / "training.json").read_text())
+    assert kept == {"data": {"seconds": 80.0, "cpu_seconds": 6.0}}
+    assert not (tmp_path / "book" / "data").exists()  # only --record writes into the book's sources

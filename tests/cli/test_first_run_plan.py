@@ -62,3 +62,22 @@ def test_a_failing_probe_does_not_stop_the_command(empty_home, capsys, monkeypat
     monkeypatch.setattr("motionlab.data.load_dataset", lambda *a, **k: None)  # a broken dataset: the command says so
     cli._announce_training("smoke", ["tokenizer/rvq"])
     assert capsys.readouterr().err == ""
+
+
+def test_the_command_uses_the_dataset_its_plan_probe_loaded(empty_home, capsys, monkeypatch):
+    loads = []
+    monkeypatch.setattr("motionlab.data.load_dataset", lambda *a, **k: loads.append(object()) or loads[-1])
+    with cli._probe_then_run():
+        cli._announce_training("smoke", ["tokenizer/rvq"])  # probes "data" (loads it), then fails: silent
+        assert cli._command_dataset(None, "smoke") is loads[0] and len(loads) == 1
+    with cli._probe_then_run():  # a new command reads the data again (the cache folder may have changed)
+        assert cli._command_dataset(None, "smoke") is loads[1] and len(loads) == 2
+    assert capsys.readouterr().err == ""
+
+
+def test_reusing_the_probe_still_announces_every_missing_model(empty_home, capsys):
+    with cli._probe_then_run():
+        cli._announce_training("smoke", ["tokenizer/rvq", "evaluator", "discord/rvq"])
+    err = capsys.readouterr().err
+    assert err.startswith("note: to train first (4 models") and "discord/rvq" in err
+    assert not list(empty_home.rglob("*.npy")), "announcing must not generate or train anything"

@@ -122,3 +122,15 @@ def test_captions_only_match_the_split_without_reading_motions(tmp_path, monkeyp
 
     monkeypatch.setattr(np, "load", header_only)
     assert fresh.captions("train") == expected and len(expected) == 3  # same clips, segments and length filter
+
+
+@pytest.mark.parametrize("version", [(1, 0), (2, 0)])
+def test_the_shape_is_read_from_the_npy_header_alone(tmp_path, version):
+    from motionlab.data.humanml3d import _shape_only
+
+    array = np.arange(7 * 5, dtype=np.float32).reshape(7, 5)
+    path = tmp_path / "clip.npy"
+    with open(path, "wb") as f:
+        np.lib.format.write_array(f, array, version=version)
+    stand_in = _shape_only(path)
+    assert stand_in.shape == (7, 5) and len(stand_in[2:6]) == 4 and stand_in.nbytes == array.nbytes

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..representation import Skeleton
-from ..viz.skeleton import CHAIN_COLORS
+from ..viz.palette import CHAIN_COLORS
 from .common import as_joints, write_text_atomic
 
 _PAGE = """<!DOCTYPE html>

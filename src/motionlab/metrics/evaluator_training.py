@@ -25,6 +25,7 @@ convolutions, which makes every embedding identical to encoding the clip alone (
 from __future__ import annotations
 
 import hashlib
+import weakref
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -299,13 +300,30 @@ def pick_captions(clips: Sequence[Any], rng: np.random.Generator) -> list[Any]:
 # Training and caching
 
 
+# dataset object -> {min_word_count: vocabulary}: a command's plan probe and its own evaluator share one build
+_vocabularies: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def build_vocabulary(dataset, config: EvaluatorTrainingConfig) -> CaptionVocabulary:
-    """The vocabulary of the dataset's *training* captions (test words it never saw become ``unk``)."""
+    """The vocabulary of the dataset's *training* captions (test words it never saw become ``unk``).
+
+    Built once per dataset object and ``min_word_count`` (reading every caption file takes seconds); a
+    dataset object that cannot be weakly referenced (e.g. a list of clips) is read every time."""
+    try:
+        built = _vocabularies.setdefault(dataset, {})
+    except TypeError:
+        built = {}
+    if config.min_word_count not in built:
+        built[config.min_word_count] = _read_vocabulary(dataset, config.min_word_count)
+    return built[config.min_word_count]
+
+
+def _read_vocabulary(dataset, min_count: int) -> CaptionVocabulary:
     if hasattr(dataset, "captions"):  # captions only: the motions are not read
         captions = [cap for caps in dataset.captions("train") for cap in caps]
     else:
         captions = [cap for clip in dataset.split("train") for cap in clip.captions]
-    return CaptionVocabulary.build((caption_tokens(cap) for cap in captions), min_count=config.min_word_count)
+    return CaptionVocabulary.build((caption_tokens(cap) for cap in captions), min_count=min_count)
 
 
 def _validation_fn(dataset, vocabulary: CaptionVocabulary, split: str = "val"):

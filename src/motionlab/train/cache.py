@@ -13,6 +13,10 @@ load: a truncated, garbage or bit-flipped ``model.safetensors`` (or an unreadabl
 ``<hash>.damaged-<time>``, and trains again; :func:`load_trained` (loading only) stops with that error.
 Artefacts written before checksums existed are accepted once if their weights load and are all finite;
 their checksum is recorded then, so later loads verify them too.
+
+A command that first probes its plan (:func:`cache_probe`, to announce what it would train) and then runs it
+wraps both in :func:`reuse_probed_models`: each model the probe loaded is handed to the command's own load of
+the same artefact instead of being read and verified a second time.
 """
 
 from __future__ import annotations
@@ -61,6 +65,55 @@ def cache_probe() -> Iterator[None]:
         yield
     finally:
         _probing -= 1
+
+
+# (artefact folder, device) -> (model loaded by a probe, stamp of its weights file); None: not collecting
+_probed: dict[tuple[Path, str], tuple[nn.Module, tuple[int, int, int]]] | None = None
+
+
+@contextmanager
+def reuse_probed_models() -> Iterator[None]:
+    """Inside this block a model that a :func:`cache_probe` loads is kept, and the first :func:`train_or_load` of
+    the same artefact on the same device outside the probe takes it (once) instead of loading it again.
+
+    Probing a plan runs its recipes, so it loads every cached model a command then loads itself; this makes
+    that second load free. A model is handed over only if its weights file is unchanged since the probe read
+    it; models no one takes are dropped when the block ends.
+    """
+    global _probed
+    outermost = _probed is None
+    if outermost:
+        _probed = {}
+    try:
+        yield
+    finally:
+        if outermost:
+            _probed = None
+
+
+def _stamp(weights: Path) -> tuple[int, int, int]:
+    """Identifies one version of a file: a rewrite or replacement changes it."""
+    st = weights.stat()
+    return st.st_mtime_ns, st.st_size, st.st_ino
+
+
+def _keep_probed(folder: Path, device: str | None, model: nn.Module) -> None:
+    if _probing and _probed is not None:
+        _probed[(folder, str(get_device(device)))] = (model, _stamp(folder / "model.safetensors"))
+
+
+def _take_probed(folder: Path, device: str | None) -> nn.Module | None:
+    """The model a probe loaded from ``folder`` for ``device``, if any and its weights are unchanged (else None)."""
+    if _probing or not _probed:
+        return None
+    kept = _probed.pop((folder, str(get_device(device))), None)
+    if kept is None:
+        return None
+    model, stamp = kept
+    try:
+        return model if _stamp(folder / "model.safetensors") == stamp else None
+    except OSError:
+        return None
 
 
 def check_may_train(what: str) -> None:
@@ -217,9 +270,14 @@ def train_or_load(
     may keep resumable checkpoints in ``workdir``, and may return JSON-able results (kept as result.json).
     """
     final = artefact_dir(name, config, profile, extra)
+    probed = None if retrain else _take_probed(final, device)
+    if probed is not None:
+        return probed
     if not retrain and (final / "model.safetensors").is_file():
         try:
-            return load_trained(name, config, build_fn, profile, extra=extra, device=device)
+            model = load_trained(name, config, build_fn, profile, extra=extra, device=device)
+            _keep_probed(final, device, model)
+            return model
         except DamagedArtefactError as err:
             if current_context().is_main:  # under torchrun one rank moves it; all of them retrain
                 moved = move_aside(final) if final.exists() else final

@@ -13,9 +13,7 @@ import numpy as np
 from matplotlib import animation
 
 from ..representation import Skeleton, get_skeleton, skeleton_for_joint_count
-
-# Right side warm, left side cool, spine neutral: chains are (right leg, left leg, spine, right arm, left arm) for t2m.
-CHAIN_COLORS = ("#d62728", "#1f77b4", "#2f2f2f", "#ff7f0e", "#17becf")
+from .palette import CHAIN_COLORS
 
 
 def _as_motion(joints, skeleton) -> tuple[np.ndarray, Skeleton]:
