@@ -46,6 +46,7 @@ ESTIMATES_S: dict[str, dict[str, float]] = {
 # Every recipe takes the profile, the data seed and ``data`` (a dataset folder; None: the embedded dataset).
 @lru_cache(maxsize=4)
 def _dataset(profile: str, seed: int, data: str | None, home: str):
+    # ``home`` (the cache root) is only part of the key: the embedded dataset lives there
     from .data import load_dataset
 
     return load_dataset(data, profile=profile, seed=seed)
