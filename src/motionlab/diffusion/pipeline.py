@@ -112,8 +112,9 @@ class TextToMotion:
         printed). ``num_steps`` None runs all T steps (ancestral), fewer skip steps with exact posterior jumps;
         ``top_p`` / ``top_k`` truncate p_θ(x_0 | x_t) at every step. Texts are sampled ``batch_size`` at a
         time, grouped by length (shortest first) so that a batch is padded little, all from the one ``generator``:
-        the network runs on every padded position, and in one batch of HumanML3D-like lengths (40–196 frames)
-        about 40% of the positions are padding.
+        in one batch of HumanML3D-like lengths (40–196 frames) about 40% of the positions are padding, and
+        while the sampler keeps the network off them, each step's posterior and draw still cover them (one batch
+        of 128 in request order made chapters 07 and 08 a third slower than sorted batches of 32).
         """
         texts = check_texts(texts)
         lengths = check_lengths(lengths_in_frames, len(texts))
