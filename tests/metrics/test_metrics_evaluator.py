@@ -5,6 +5,8 @@ import pickle
 import numpy as np
 import pytest
 import torch
+import torch.nn.functional as F
+from torch.nn.utils.rnn import pack_padded_sequence
 
 from motionlab.metrics import (
     POS_CATEGORIES,
@@ -18,6 +20,7 @@ from motionlab.metrics import (
     pad_caption,
     pos_category,
 )
+from motionlab.metrics.evaluator import official_motion_batch
 
 # The compatibility contract: parameter names and shapes of the official t2m ``finest.tar``
 # (EricGuo5513/text-to-motion, networks/modules.py with the sizes of EvaluatorModelWrapper).
@@ -248,40 +251,98 @@ def test_load_official_evaluator_checks_the_feature_size(tmp_path):
         load_official_evaluator(tmp_path, tmp_path)
 
 
-def test_motion_embedding_does_not_depend_on_the_callers_padding():
-    # The movement encoder's last step for a clip of L frames reads frames L-1 .. L+2: a batch padded to
-    # only L or L+1 frames used to replace that step's input by the convolution's zero padding.
+# --- the official evaluation path --------------------------------------------------------------------------
+
+
+def official_embeddings(model: TextMotionEvaluator, clips: list[torch.Tensor], mean=0.0, std=1.0) -> torch.Tensor:
+    """Each clip's embedding as MoMask / text-to-motion compute it, written from their code, not motionlab's batching.
+
+    ``Text2MotionDatasetEval``: crop a clip to ``len // 4 * 4`` frames (from frame 0 here; they draw a random
+    start), normalise, zero-pad to exactly 196 frames. ``EvaluatorModelWrapper.get_co_embeddings``: sort the
+    batch by length, descending; the movement encoder (Conv1d k4 s2 p1 + LeakyReLU 0.2, twice, then Linear)
+    over all 196 frames; the motion GRU packed by ``length // 4``. Embeddings come back in the clips' order.
+    """
+    lengths = torch.tensor([len(c) // 4 * 4 for c in clips])
+    window = [torch.cat([(c[:n] - mean) / std, c.new_zeros(196 - n, c.shape[1])]) for c, n in zip(clips, lengths)]
+    order = torch.argsort(lengths, descending=True, stable=True)
+    motions, lengths = torch.stack(window).float()[order], lengths[order]
+    conv = model.movement_encoder.state_dict()
+    h = motions[..., :-4].transpose(1, 2)  # (B, D-4, 196)
+    for layer in ("main.0", "main.3"):
+        h = F.leaky_relu(F.conv1d(h, conv[f"{layer}.weight"], conv[f"{layer}.bias"], stride=2, padding=1), 0.2)
+    movements = F.linear(h.transpose(1, 2), conv["out_net.weight"], conv["out_net.bias"])  # (B, 49, latent)
+    enc = model.motion_encoder
+    packed = pack_padded_sequence(enc.input_emb(movements), (lengths // 4).tolist(), batch_first=True)
+    _, last = enc.gru(packed, enc.hidden.repeat(1, len(clips), 1))
+    return enc.output_net(torch.cat((last[0], last[1]), dim=-1))[torch.argsort(order)]
+
+
+def padded(clips: list[torch.Tensor], width: int, fill: float = float("nan")) -> torch.Tensor:
+    """Clips in a ``(B, width, D)`` batch; ``fill`` past each clip's end (NaN: fails loudly if ever read)."""
+    out = torch.full((len(clips), width, clips[0].shape[1]), fill)
+    for i, c in enumerate(clips):
+        out[i, : len(c)] = c
+    return out
+
+
+@pytest.mark.parametrize(
+    "lengths, width",
+    [
+        (list(range(4, 200)), 199),  # every length the official loaders keep, 197-199 floored to 196
+        ([36, 60, 84, 108, 132, 156, 180, 196], 196),  # multiples of 4, a 196-frame clip among them
+        ([196], 196),
+        ([193, 194, 195, 196], 196),
+        ([193, 194, 195, 196], 250),
+        ([188, 192], 192),  # narrower than the 194 frames a 192-frame clip needs: padded here
+        ([36], 36),
+        ([36], 37),
+        ([37, 38, 39, 36], 50),  # floored to 36
+        ([4, 5, 6, 7, 8, 12], 12),
+        ([4, 40, 41, 77], 196),
+        ([36, 60], 60),  # a short clip beside a longer one
+    ],
+)
+def test_motion_embedding_is_the_official_one(lengths, width):
     model = tiny_model(3)
-    clip = torch.randn(40, TINY.dim_pose, generator=torch.Generator().manual_seed(4))
-
-    def embed(padded_to: int, fill: float = 0.0, length: int = 36) -> torch.Tensor:
-        x = torch.full((1, padded_to, TINY.dim_pose), fill)
-        x[0, :length] = clip[:length]
-        with torch.no_grad():
-            return model.encode_motion(x, torch.tensor([length]))[0]
-
-    official = embed(196)
-    for padded_to in (36, 37, 38, 50):
-        torch.testing.assert_close(embed(padded_to), official, rtol=0, atol=1e-6)
-    torch.testing.assert_close(embed(40, fill=float("nan")), official, rtol=0, atol=1e-6)  # padding is never read
-    # a length that is not a multiple of 4 is cropped the official way: its first floor(L/4)*4 frames
-    for length in (37, 38, 39):
-        torch.testing.assert_close(embed(196, length=length, fill=7.0), embed(36, length=36), rtol=0, atol=1e-6)
-    # in a batch: the short clip's embedding is the same beside a longer one and alone
-    batch = torch.zeros(2, 60, TINY.dim_pose)
-    batch[0, :36] = clip[:36]
-    batch[1] = torch.randn(60, TINY.dim_pose, generator=torch.Generator().manual_seed(5))
+    g = torch.Generator().manual_seed(len(lengths) + width)
+    clips = [torch.randn(n, TINY.dim_pose, generator=g) for n in lengths]
     with torch.no_grad():
-        together = model.encode_motion(batch, torch.tensor([36, 60]))
-    torch.testing.assert_close(together[0], official, rtol=0, atol=1e-6)
+        ours = model.encode_motion(padded(clips, width), torch.tensor(lengths))
+        torch.testing.assert_close(ours, official_embeddings(model, clips), rtol=0, atol=1e-5)
+
+
+def test_every_length_alone_embeds_as_in_the_official_batch():
+    model = tiny_model(4)
+    g = torch.Generator().manual_seed(0)
+    clips = [torch.randn(n, TINY.dim_pose, generator=g) for n in range(4, 200)]
+    with torch.no_grad():
+        official = official_embeddings(model, clips)
+        alone = torch.cat([model.encode_motion(c[None], torch.tensor([len(c)])) for c in clips])
+    torch.testing.assert_close(alone, official, rtol=0, atol=1e-5)
+
+
+def test_official_evaluator_embeds_raw_features_as_the_official_loader(tmp_path):
+    write_official_layout(tmp_path)
+    ev = load_official_evaluator(tmp_path, tmp_path)
+    g = torch.Generator().manual_seed(1)
+    clips = [torch.randn(n, 263, generator=g) for n in (196, 40, 197, 123, 194)]
+    meta = tmp_path / "checkpoints" / "t2m" / "Comp_v6_KLD005" / "meta"
+    mean, std = (torch.as_tensor(np.load(meta / f)) for f in ("mean.npy", "std.npy"))
+    with torch.no_grad():
+        expected = official_embeddings(ev.model, clips, mean, std)
+    torch.testing.assert_close(ev.embed_motions(padded(clips, 197, 0.0), [len(c) for c in clips]), expected,
+                               rtol=0, atol=1e-5)  # fmt: skip
 
 
 def test_official_motion_batch_crops_zeroes_and_pads():
-    from motionlab.metrics.evaluator import official_motion_batch
-
     x = torch.ones(2, 10, 3)
     out, lengths = official_motion_batch(x, torch.tensor([10, 7]))
     assert lengths.tolist() == [8, 4] and out.shape == (2, 10, 3)  # max(8, 4) + 2 frames
     assert out[0, :8].eq(1).all() and out[0, 8:].eq(0).all() and out[1, :4].eq(1).all() and out[1, 4:].eq(0).all()
-    out, _ = official_motion_batch(torch.ones(1, 196, 3), torch.tensor([40]))
-    assert out.shape == (1, 42, 3)  # the official 196 frames of padding, cut to what the encoder reads
+    # short batches stay short (as fast as they can be); with a 196-frame clip, the official 196-frame window
+    for lengths, frames in (([40], 42), ([192], 194), ([195], 194), ([196, 40], 196), ([199], 196)):
+        out, _ = official_motion_batch(torch.ones(1, 199, 3).expand(len(lengths), -1, -1), torch.tensor(lengths))
+        assert out.shape[1] == frames, lengths
+    for bad in (1, 2, 3, 200):  # no movement step; a clip the official loaders drop
+        with pytest.raises(ValueError, match="unit_length=4 frames and at most 196"):
+            official_motion_batch(torch.ones(1, 200, 3), torch.tensor([bad]))

@@ -175,18 +175,16 @@ class TextMotionEvaluator(nn.Module):
     def encode_motion(self, motions: torch.Tensor, lengths: torch.Tensor) -> torch.Tensor:
         """Normalised features ``(B, T, dim_pose)`` and lengths in frames ``(B,)`` -> ``(B, dim_coemb)``.
 
-        A clip's embedding depends on its first ``lengths[i]`` frames only, never on how the caller padded it:
-        the input is brought to the official pipeline's form here (:func:`official_motion_batch`: crop each
-        clip to a whole number of ``unit_length`` steps, zero the rest, pad with zeros to two frames past
-        the longest clip). The four foot-contact channels are dropped; the GRU runs over ``lengths // 4``
+        A clip's embedding is the official evaluation's embedding of its first ``lengths[i] // 4 * 4`` frames,
+        never dependent on how the caller padded it or on its batch-mates (:func:`official_motion_batch`: crop,
+        zero the rest, and a batch width equivalent to the official 196-frame window). Floored lengths must
+        lie in ``[4, 196]``. The four foot-contact channels are dropped; the GRU runs over ``lengths // 4``
         movement steps.
         """
         c = self.config
         if motions.dim() != 3 or motions.shape[-1] != c.dim_pose:
             raise ValueError(f"motions must have shape (B, T, {c.dim_pose}), got {tuple(motions.shape)}")
         lengths = _check_lengths(lengths, motions.shape[0], motions.shape[1], "lengths")
-        if (lengths < c.unit_length).any():
-            raise ValueError(f"every motion needs at least unit_length={c.unit_length} frames")
         motions, lengths = official_motion_batch(motions, lengths, c.unit_length)
         movements = self.movement_encoder(motions[..., :-4].float())  # (B, T'/4, latent)
         return self.motion_encoder(movements, lengths // c.unit_length)
@@ -210,26 +208,47 @@ class TextMotionEvaluator(nn.Module):
 OFFICIAL_PARTS = ("text_encoder", "motion_encoder", "movement_encoder")
 
 
-def official_motion_batch(motions: torch.Tensor, lengths: torch.Tensor, unit_length: int = 4):
+MAX_MOTION_LENGTH = 196  # frames in every official evaluation batch (``max_motion_length``, HumanML3D and KIT-ML)
+
+
+def official_motion_batch(
+    motions: torch.Tensor, lengths: torch.Tensor, unit_length: int = 4
+) -> tuple[torch.Tensor, torch.Tensor]:
     """A padded batch ``(B, T, D)`` as the official evaluation feeds it to the motion encoder, and its lengths.
 
-    - Each length is floored to a multiple of ``unit_length``, as the official loaders floor every clip
-      (they also draw a random start for that crop; here a clip keeps its first frames, so its embedding is
-      a function of the clip). The GRU reads ``length // unit_length`` steps either way, but the last step's
-      convolutions would otherwise see the up to 3 frames past the floor.
+    **Invariant:** every clip's embedding is the one it gets in the official evaluation (MoMask /
+    text-to-motion: ``Text2MotionDatasetEval`` batches encoded by ``EvaluatorModelWrapper.get_co_embeddings``),
+    whatever padding the caller used. There each clip is cropped to ``length // 4 * 4`` frames, normalised,
+    zero-padded to exactly ``MAX_MOTION_LENGTH = 196`` frames, the movement encoder runs over all 196
+    frames and the GRU over the first ``length // 4`` movement steps. Here:
+
+    - Each length is floored to a multiple of ``unit_length`` (a clip keeps its first frames; the official
+      loader draws a random start for the crop, so here the embedding is a function of the clip).
+    - A floored length must lie in ``[unit_length, 196]``: shorter clips give the GRU no step, and the
+      official loaders drop clips of 200 frames or more (197-199 are floored to 196, as here).
     - Every frame past a clip's (floored) length becomes 0: the official padding, in normalised space.
-    - The time axis becomes ``max(length) + 2`` frames. The movement encoder's last step for a clip of
-      ``L`` frames reads frames ``L - 1 .. L + 2``; with fewer than ``L + 2`` frames in the batch the first
-      convolution has no output there and the second one's zero padding takes its place (the embedding
-      then differs from the official one by up to 9 % relative L2). Two zero frames suffice: padding to the
-      official 196 gives the same embedding, only slower.
+    - The time axis becomes ``T = min(max(length) + 2, 196)`` frames rather than 196, which is faster for
+      short batches and gives the same embeddings. Why: both convolutions are (kernel 4, stride 2,
+      padding 1), so movement step ``k`` reads first-convolution outputs ``2k-1 .. 2k+2`` and output ``j``
+      reads frames ``2j-1 .. 2j+2``. The GRU reads steps ``k < L/4``, i.e. outputs ``j <= L/2`` and frames
+      up to ``L + 2``, all zero past ``L``. The only thing the batch width decides is whether output
+      ``L/2`` exists (``L + 2 <= T``) or is replaced by the second convolution's zero padding. In the
+      196-frame window it exists for every ``L`` up to 192 and not for ``L = 196``; ``T`` above gives
+      the same for every clip of the batch (``max(length) + 2`` frames alone would give a 196-frame clip an
+      output ``98`` computed over its last real frame, where the official one reads zero padding).
     """
-    lengths = lengths // unit_length * unit_length  # (B,)
-    frames = int(lengths.max()) + 2
+    floored = lengths // unit_length * unit_length  # (B,)
+    if (floored < unit_length).any() or (floored > MAX_MOTION_LENGTH).any():
+        raise ValueError(
+            f"every motion needs at least unit_length={unit_length} frames and at most {MAX_MOTION_LENGTH} once "
+            f"floored to a multiple of {unit_length} (the official loaders drop longer clips), got {lengths.tolist()}"
+        )
+    lengths = floored
+    frames = min(int(lengths.max()) + 2, MAX_MOTION_LENGTH)
     if motions.shape[1] < frames:
-        motions = torch.nn.functional.pad(motions, (0, 0, 0, frames - motions.shape[1]))
+        motions = F.pad(motions, (0, 0, 0, frames - motions.shape[1]))
     motions = motions[:, :frames]
-    keep = torch.arange(frames, device=motions.device) < lengths.to(motions.device)[:, None]  # (B, T')
+    keep = torch.arange(frames, device=motions.device) < lengths.to(motions.device)[:, None]  # (B, T)
     return torch.where(keep[..., None], motions, torch.zeros((), dtype=motions.dtype, device=motions.device)), lengths
 
 

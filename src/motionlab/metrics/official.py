@@ -71,8 +71,9 @@ class OfficialEvaluator:
     def embed_motions(self, features, lengths) -> torch.Tensor:
         """*Raw* features ``(B, T, D)`` padded any way (normalised here) and lengths ``(B,)`` -> ``(B, 512)``.
 
-        The padding never matters: a clip's embedding is that of its first ``lengths[i] // 4 * 4`` frames,
-        zero-padded the official way (:func:`~motionlab.metrics.evaluator.official_motion_batch`)."""
+        The padding never matters: a clip's embedding is the one the official evaluation gives its first
+        ``lengths[i] // 4 * 4`` frames (4 to 196), zero-padded to the official 196-frame window
+        (:func:`~motionlab.metrics.evaluator.official_motion_batch`)."""
         x = torch.as_tensor(features, dtype=torch.float32, device=self._device())
         if x.dim() != 3:
             raise ValueError(f"features must have shape (B, T, D), got {tuple(x.shape)}")
