@@ -36,3 +36,21 @@ def one_torch_thread():
     torch.set_num_threads(1)
     yield
     torch.set_num_threads(previous)
+
+
+RUN_SETTINGS = ("MOTIONLAB_PROFILE", "MOTIONLAB_PRECISION", "MOTIONLAB_THREADS")
+
+
+@pytest.fixture(autouse=True)
+def fp32_run_settings():
+    """Unit tests run in fp32, whatever the CPU: the exactness checks against the official code are fp32 checks,
+    and the bf16 path has tests of its own that ask for it. A test that applies run settings (every CLI call
+    does: they are exported to the environment) must not leak them into the next test."""
+    saved = {name: os.environ.get(name) for name in RUN_SETTINGS}
+    os.environ["MOTIONLAB_PRECISION"] = "fp32"
+    yield
+    for name, value in saved.items():
+        if value is None:
+            os.environ.pop(name, None)
+        else:
+            os.environ[name] = value

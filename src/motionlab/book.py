@@ -56,7 +56,7 @@ from pathlib import Path
 
 import numpy as np
 
-from motionlab.profiles import env_threads, get_profile
+from motionlab.profiles import env_threads
 
 # Small, crisp figures: a book page is ~700 px wide and the site must stay light.
 RC_PARAMS = {
@@ -79,11 +79,13 @@ RC_PARAMS = {
 _CDN_LINK = re.compile(r"<link[^>]*href=[\"']https?://[^\"']*font-awesome[^\"']*[\"'][^>]*>\s*", re.IGNORECASE)
 
 
-def setup(seed: int = 0, profile: str | None = None, threads: int | None = None) -> str:
-    """Seed every RNG, set plotting defaults and torch threads; return the validated profile.
+def setup(seed: int = 0, profile: str | None = None, threads: int | None = None, precision: str | None = None) -> str:
+    """Resolve the chapter's run settings, seed every RNG, set plotting defaults; return the validated profile.
 
-    ``profile`` falls back to ``$MOTIONLAB_PROFILE`` and then ``"laptop"``
-    (see :mod:`motionlab.profiles`). ``threads`` defaults to ``$MOTIONLAB_THREADS``, else 1: the book's
+    ``profile`` falls back to ``$MOTIONLAB_PROFILE`` and then ``"laptop"`` (see :mod:`motionlab.profiles`);
+    ``precision`` to ``$MOTIONLAB_PRECISION`` and then ``"auto"`` (see :mod:`motionlab.precision`): together they
+    become the kernel's :class:`~motionlab.settings.RunSettings`, which every library call in the chapter then
+    reads. ``threads`` defaults to ``$MOTIONLAB_THREADS``, else 1: the book's
     small convolutions gain little from a second thread on an idle machine and become many times slower
     when anything else shares the CPU (measured on 2-core machines), so one thread is the predictable choice.
     Library code never relies on these global seeds: it takes explicit generators. The seeds only
@@ -93,20 +95,22 @@ def setup(seed: int = 0, profile: str | None = None, threads: int | None = None)
         raise ValueError(f"seed must be a non-negative int, got {seed!r}")
     if threads is not None and (not isinstance(threads, int) or threads < 1):
         raise ValueError(f"threads must be a positive int or None, got {threads!r}")
-    profile = get_profile(profile)
+    from motionlab.settings import apply_settings, resolve_settings  # imports torch: only when a chapter starts
+
+    settings = resolve_settings(profile, precision, threads if threads is not None else (env_threads() or 1))
+    profile = apply_settings(settings).profile  # also sets torch's threads
 
     random.seed(int(seed))
     np.random.seed(int(seed) % 2**32)  # noqa: NPY002 -- the global RNG that ad-hoc cells use
     import torch  # local: importing motionlab.book should not pay for torch when unused
 
     torch.manual_seed(int(seed))
-    torch.set_num_threads(threads if threads is not None else (env_threads() or 1))
 
     import matplotlib as mpl
 
     mpl.rcParams.update(RC_PARAMS)
     global _started, _profile
-    _started, _profile = time.perf_counter(), profile
+    _started, _profile = time.perf_counter(), f"{profile}, {settings.resolved_precision()}"
     return profile
 
 

@@ -30,13 +30,12 @@ def _data_check(args: argparse.Namespace) -> int:
 
 def _data_make_embedded(args: argparse.Namespace) -> int:
     from .data.embedded import EMBEDDED_SIZES, ensure_embedded, write_embedded_dataset
-    from .profiles import get_profile
 
     if args.out is None:
         if args.clips is not None:  # the cached dataset's size is the profile's: never ignore --clips silently
-            size = EMBEDDED_SIZES[get_profile(args.profile)]
+            size = EMBEDDED_SIZES[args.settings.profile]
             raise ValueError(f"--clips needs --out: the cached dataset of a profile has its own size ({size} clips "
-                             f"for {get_profile(args.profile)}); write a custom size to a folder of your own")
+                             f"for {args.settings.profile}); write a custom size to a folder of your own")
         _check_cache_writable()
         path = ensure_embedded(profile=args.profile, seed=args.seed)
     else:
@@ -45,7 +44,7 @@ def _data_make_embedded(args: argparse.Namespace) -> int:
             print(f"error: {out} already exists; choose a new folder", file=sys.stderr)
             return 2
         _check_writable_folder(out.parent, "--out")
-        n = args.clips or EMBEDDED_SIZES[get_profile(args.profile)]
+        n = args.clips or EMBEDDED_SIZES[args.settings.profile]
         path = write_embedded_dataset(out, n_clips=n, seed=args.seed)
     print(path)
     return 0
@@ -69,7 +68,6 @@ def _data_from_bvh(args: argparse.Namespace) -> int:
 
 
 def _train(args: argparse.Namespace) -> int:
-    from .profiles import get_profile
     from .train.distributed import init_distributed
 
     flow_options = _flow_overrides(args)
@@ -85,7 +83,7 @@ def _train(args: argparse.Namespace) -> int:
         raise ValueError("--tokenizer chooses whose tokens the DisCoRD decoder reads; it needs the model 'discord'")
     _check_cache_writable()  # a read-only cache would fail only after the training
     ctx = init_distributed()  # a no-op unless launched by torchrun
-    profile = get_profile(args.profile)
+    profile = args.settings.profile
     model_job = {"vq": "tokenizer/vq", "rvq": "tokenizer/rvq", "evaluator": "evaluator", "diffusion": "t2m/dynamic",
                  "discord": f"discord/{args.tokenizer or 'rvq'}"}[args.model]  # fmt: skip
     with _probe_then_run():
@@ -101,7 +99,6 @@ def _train(args: argparse.Namespace) -> int:
 
 def _train_book(args: argparse.Namespace, flow_options: dict) -> int:
     from .book_models import book_jobs
-    from .profiles import get_profile
     from .train.plan import results_table, run_plan
 
     given = [f"--{k.replace('_', '-')}" for k in flow_options] + [
@@ -116,7 +113,7 @@ def _train_book(args: argparse.Namespace, flow_options: dict) -> int:
     if args.record and not (Path("book") / "_toc.yml").is_file():
         raise FileNotFoundError("--record writes into the book's repository: run it from its root (book/_toc.yml)")
     _check_cache_writable()
-    profile = get_profile(args.profile)
+    profile = args.settings.profile
     plan = book_jobs(profile)
     try:
         results = run_plan(plan, workers=jobs)
@@ -154,13 +151,12 @@ def _book_execute(args: argparse.Namespace) -> int:
     import yaml
 
     from . import notebook_runner as runner
-    from .profiles import get_profile
 
     root = Path(args.root).resolve()
     toc = root / "book" / "_toc.yml"
     if not toc.is_file():
         raise FileNotFoundError(f"{toc} not found: run 'book execute' in the book's repository (or pass --root)")
-    profile = get_profile(args.profile)
+    profile = args.settings.profile
     chapters = [root / f"{entry['file']}.ipynb" for part in yaml.safe_load(toc.read_text())["parts"]
                 for entry in part["chapters"] if entry["file"].startswith("notebooks/")]  # fmt: skip
     if args.chapters:
@@ -174,8 +170,8 @@ def _book_execute(args: argparse.Namespace) -> int:
     timings_path = out_dir / "timings.json"
     recorded = root / "book" / "data" / "build_times" / f"{profile}.json"
     previous = runner.load_timings(timings_path) or runner.load_timings(recorded)
-    os.environ["MOTIONLAB_PROFILE"] = profile  # the chapters' kernels inherit it
-    # ... and this: a chapter that would train a model outside `train book`'s plan fails instead of training
+    # the chapters' kernels inherit the run's settings (exported by _settings) and this: a chapter that would train a
+    # model outside `train book`'s plan fails instead of training
     os.environ["MOTIONLAB_NO_TRAIN"] = "1"
     print(f"executing {len(chapters)} chapters ({profile}), {args.jobs} at a time -> {out_dir}", flush=True)
     start = time.monotonic()
@@ -231,7 +227,6 @@ def _trained_model(name: str, dataset, profile: str, device: str | None, flow_op
 def _generate(args: argparse.Namespace) -> int:
     from .diffusion.pipeline import text_to_motion_for_dataset
     from .io import save_motion
-    from .profiles import get_profile
 
     texts = [t.strip() for t in args.texts]
     if not all(texts):
@@ -241,7 +236,7 @@ def _generate(args: argparse.Namespace) -> int:
         raise ValueError(f"give one --length for all texts or one per text; got {len(args.length)} for {len(texts)}")
     if args.T_s is not None and len(texts) == 1:
         raise ValueError("--T-s is the Two-Phase Sampling switch step; it needs two or more texts")
-    profile = get_profile(args.profile)
+    profile = args.settings.profile
     _check_generation_lengths(lengths, profile)
     _check_output(args.out, args.force, "--out")  # before any training or sampling
     with _probe_then_run():
@@ -365,9 +360,8 @@ def _convert(args: argparse.Namespace) -> int:
 
 def _evaluate(args: argparse.Namespace) -> int:
     from .evaluation import EVALUATORS, check_json_path, default_repeats, write_json
-    from .profiles import get_profile
 
-    profile = get_profile(args.profile)
+    profile = args.settings.profile
     config = _evaluation_config(args, default_repeats(profile) if args.repeats is None else args.repeats)
     if args.json is not None:
         check_json_path(args.json, force=args.force)  # refuse before hours of work, not after
@@ -527,18 +521,14 @@ def _add_evaluate(sub) -> None:
         task.set_defaults(func=_evaluate)
 
 
-def _set_threads(threads: int | None) -> None:
-    from .profiles import env_threads
+def _settings(args: argparse.Namespace):
+    """The run's settings, resolved once from the options and the environment, and made the run's (exported, so
+    that worker processes and chapter kernels inherit them); every command reads them from ``args.settings``."""
+    from .settings import apply_settings, resolve_settings
 
-    if threads is None:
-        threads = env_threads()  # None: leave torch's own choice
-    if threads is None:
-        return
-    if threads < 1:
-        raise ValueError(f"--threads must be a positive int, got {threads}")
-    import torch
-
-    torch.set_num_threads(threads)
+    if args.threads is not None and args.threads < 1:
+        raise ValueError(f"--threads must be a positive int, got {args.threads}")
+    return apply_settings(resolve_settings(getattr(args, "profile", None), args.precision, args.threads))
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -546,6 +536,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--threads", type=int, default=None,
                         help="torch CPU threads (default: $MOTIONLAB_THREADS, else torch's choice); 1 is often "
                              "faster when other programs share the CPU")  # fmt: skip
+    parser.add_argument("--precision", choices=["auto", "fp32", "bf16"], default=None,
+                        help="numeric precision of training and sampling (default: $MOTIONLAB_PRECISION, else auto: "
+                             "bf16 where the CPU has bf16 matrix units (AMX, or AVX512-BF16 on AMD) or the GPU "
+                             "supports it, else fp32); metrics, losses and weights stay fp32")  # fmt: skip
     sub = parser.add_subparsers(dest="command", required=True)
 
     data = sub.add_parser("data", help="datasets: generate the embedded one, check a folder, convert BVH takes")
@@ -698,7 +692,7 @@ def main(argv: list[str] | None = None) -> int:
     with warnings.catch_warnings():
         warnings.showwarning = _show_warning  # one "warning:" line each, restored on exit
         try:
-            _set_threads(args.threads)
+            args.settings = _settings(args)
             return args.func(args)
         except (ValueError, FileNotFoundError) as err:
             print(f"error: {err}", file=sys.stderr)

@@ -230,11 +230,15 @@ def _cell_seconds(nb) -> dict[str, float]:
 def build_fingerprint(profile: str, home: str | Path) -> str:
     """A digest of what every chapter's outputs depend on besides its own source.
 
-    The library's files (unlike Jupyter Book's cache, which ignores them), the profile, and the model cache of
-    that profile (names, sizes and modification times: a retrained model changes it). A chapter whose notebook
-    and this digest are unchanged since it last executed successfully gives the same outputs again.
+    The library's files (unlike Jupyter Book's cache, which ignores them), the profile, the precision the run
+    resolves to (its models are other artefacts), and the model cache of that profile (names, sizes and
+    modification times: a retrained model changes it). A chapter whose notebook and this digest are unchanged
+    since it last executed successfully gives the same outputs again.
     """
-    digest = hashlib.sha256(profile.encode())
+    from .precision import network_precision
+    from .train.device import get_device
+
+    digest = hashlib.sha256(f"{profile}:{network_precision(get_device(None))}".encode())
     package = Path(__file__).resolve().parent
     for path in sorted(package.rglob("*")):
         if path.is_file() and "__pycache__" not in path.parts:

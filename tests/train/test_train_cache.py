@@ -80,7 +80,7 @@ def test_trains_once_then_loads(home):
     for a, b in zip(first.state_dict().values(), second.state_dict().values()):
         assert torch.equal(a, b)
     folder = artefact_dir("toy", cfg, "smoke")
-    assert folder.parent == home / "models" / "toy" / "smoke" and folder.name == config_hash(cfg)
+    assert folder.parent == home / "models" / "toy" / "smoke" and folder.name == config_hash(cfg, {"precision": "fp32"})
     assert sorted(p.name for p in folder.iterdir()) == ["config.json", "model.safetensors", "result.json"]
     assert not folder.with_name(folder.name + ".work").exists()  # checkpoints cleaned up
     assert load_result("toy", cfg, "smoke")[-1]["step"] == 10

@@ -20,6 +20,7 @@ from torch import Tensor, nn
 
 from motionlab.diffusion.posterior import LOG_FLOOR, log_p_posterior, log_q_posterior, q_sample
 from motionlab.diffusion.transitions import Transitions
+from motionlab.precision import in_fp32
 
 AUX_WEIGHT = 5e-4  # λ of M2D2M Eq. 3 (appendix A.1)
 
@@ -41,6 +42,7 @@ def sample_timesteps(batch: int, T: int, generator: torch.Generator) -> Tensor:
     return torch.randint(1, T + 1, (batch,), generator=generator, device=generator.device)
 
 
+@in_fp32  # posteriors and KL terms stay fp32 under bf16 autocast
 def vb_terms(log_p_x0: Tensor, x0: Tensor, x_t: Tensor, t: Tensor, transitions: Transitions) -> tuple[Tensor, Tensor]:
     """Per-token bound term L_t and auxiliary term −log p_θ(x_0 | x_t), both (B, L).
 

@@ -295,7 +295,7 @@ def text_to_motion_for_dataset(
 
     networks = train_or_load(MODEL_NAME, config, build, train_fn, profile, extra=extra, device=device,
                              retrain=retrain)  # fmt: skip
-    history = load_result(MODEL_NAME, config, profile, extra).get("history", [])
+    history = load_result(MODEL_NAME, config, profile, extra, device).get("history", [])
     transitions.to(next(networks.parameters()).device)
     return TextToMotion(tokenizer, networks.text_encoder, networks.denoiser, transitions, dataset.normalizer,
                         config.transformer, history)  # fmt: skip

@@ -23,6 +23,8 @@ import math
 import torch
 from torch import Tensor
 
+from motionlab.precision import in_fp32
+
 LOG_FLOOR = -70.0
 _P_FLOOR = math.exp(LOG_FLOOR)
 
@@ -106,6 +108,7 @@ def log_q_posterior(x0: Tensor, x_t: Tensor, step: Tensor, cum_prev: Tensor) -> 
     return _normalise(logits)
 
 
+@in_fp32  # transition matrices and log-probabilities stay fp32 under bf16 autocast
 def log_p_posterior(log_p_x0: Tensor, x_t: Tensor, step: Tensor, cum_prev: Tensor, cum_t: Tensor) -> Tensor:
     """The model's reverse step log p_θ(x_s | x_t) = log Σ_{x0} q(x_s | x_t, x0) p_θ(x0 | x_t): -> (B, L, K+1).
 

@@ -29,6 +29,7 @@ from torch import Tensor, nn
 
 from motionlab.diffusion.posterior import LOG_FLOOR, gumbel_sample, log_p_posterior
 from motionlab.diffusion.transitions import Transitions
+from motionlab.precision import in_precision, network_precision
 
 GUIDANCE_SPACES = ("x0", "posterior")
 
@@ -85,6 +86,7 @@ def _network_log_p_x0(
     """Conditional (and, if guided, unconditional) log p_θ(x_0 | x_t) from one batched network call."""
     B = x_t.shape[0]
     steps = torch.full((B,), t, dtype=torch.long, device=x_t.device)
+    model = in_precision(model, network_precision(x_t.device), x_t.device)  # log-probabilities come back fp32
     if not guided:
         return model(x_t, steps, text, **kw), None
     double = {k: (torch.cat([v, v]) if torch.is_tensor(v) else v) for k, v in kw.items()}

@@ -28,6 +28,7 @@ from motionlab.flow.condition import make_condition_projection
 from motionlab.flow.config import FEAT_BIAS, DisCoRDConfig, check_temperature, discord_config
 from motionlab.flow.rectified_flow import as_velocity_fn, flow_matching_loss, sample, sample_noise
 from motionlab.flow.unet1d import UNet1D
+from motionlab.precision import in_precision, network_precision
 from motionlab.train import seeded
 
 
@@ -181,8 +182,11 @@ class DisCoRDDecoder(nn.Module):
         try:
             cond = self.condition(code_vectors)  # (B, T, c): computed once, reused at every evaluation
             x0 = temperature * sample_noise((B, N * cfg.q, cfg.feature_dim), generator, like=cond)  # (B, T, D)
-            final_fn = self.unet if cfg.final_prediction else None
-            x1 = sample(self.velocity_field, x0, steps, solver, cond, spacing=cfg.spacing, final_fn=final_fn)
+            # the U-Net in the run's precision; the ODE state x stays fp32 between its evaluations
+            unet = in_precision(self.unet, network_precision(param.device), param.device)
+            final_fn = unet if cfg.final_prediction else None
+            velocity = as_velocity_fn(unet, cfg.prediction)
+            x1 = sample(velocity, x0, steps, solver, cond, spacing=cfg.spacing, final_fn=final_fn)
             return self.from_model_space(x1)
         finally:
             self.train(was_training)

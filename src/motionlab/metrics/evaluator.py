@@ -27,6 +27,8 @@ import torch.nn.functional as F
 from torch import nn
 from torch.nn.utils.rnn import pack_padded_sequence
 
+from ..precision import in_fp32
+
 
 @dataclass(frozen=True)
 class EvaluatorConfig:
@@ -268,6 +270,7 @@ class ContrastiveLosses:
     negative: torch.Tensor
 
 
+@in_fp32  # a loss: its similarities stay fp32 under bf16 autocast
 def contrastive_loss(
     text_emb: torch.Tensor,
     motion_emb: torch.Tensor,

@@ -421,5 +421,5 @@ def load_or_train_evaluator(
     model = train_or_load(MODEL_NAME, config, _builder(vocabulary, config.seed),
                           _train_fn(dataset, vocabulary, config, progress, device), profile,
                           extra=extra, device=device, retrain=retrain)  # fmt: skip
-    history = load_result(MODEL_NAME, config, profile, extra)["history"]
+    history = load_result(MODEL_NAME, config, profile, extra, device)["history"]
     return EmbeddedEvaluator(model, vocabulary, dataset.normalizer, history=history)

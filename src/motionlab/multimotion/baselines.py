@@ -41,6 +41,7 @@ from motionlab.multimotion.tps import (
     segment_layout,
     text_tensors,
 )
+from motionlab.precision import in_precision, network_precision
 
 DEFAULT_TRANSITION = 40  # frames: M2D2M's transition window and handshake size
 
@@ -103,6 +104,7 @@ def _guided_log_p_x0(model, x, t: int, tokens, text_pad, padding_mask, guidance_
     """log p_θ(x_0 | x_t) of a batch, with Eq. 9's guidance on x_0 (one doubled network call if guided)."""
     B = x.shape[0]
     steps = torch.full((B,), t, dtype=torch.long, device=x.device)
+    model = in_precision(model, network_precision(x.device), x.device)
     if guidance_scale == 0.0:
         return model(x, steps, tokens, text_pad, padding_mask=padding_mask)
     drop = torch.cat([torch.zeros(B, dtype=torch.bool), torch.ones(B, dtype=torch.bool)]).to(x.device)

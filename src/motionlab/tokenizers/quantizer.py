@@ -21,6 +21,8 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from ..precision import in_fp32
+
 
 @dataclass
 class QuantizeOutput:
@@ -122,6 +124,7 @@ class QuantizerEMAReset(nn.Module):
         return int((~alive).sum())
 
     # -- the layer ----------------------------------------------------------------------------------------------
+    @in_fp32  # nearest-code search and codebook EMA stay exact under bf16 autocast
     def forward(self, x: torch.Tensor, generator: torch.Generator | None = None) -> QuantizeOutput:
         """Quantise ``x (..., C)``. In training mode this also initialises / EMA-updates / resets the codebook."""
         flat = x.reshape(-1, self.code_dim)  # (N, C)

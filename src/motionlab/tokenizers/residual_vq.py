@@ -12,6 +12,7 @@ from __future__ import annotations
 import torch
 from torch import nn
 
+from ..precision import in_fp32
 from .quantizer import QuantizeOutput, QuantizerEMAReset, fallback_generator
 
 
@@ -48,6 +49,7 @@ class ResidualVQ(nn.Module):
                 return int(torch.randint(1, self.num_layers + 1, (), generator=generator, device=generator.device))
         return self.num_layers
 
+    @in_fp32  # residuals, nearest codes and codebook EMA stay exact under bf16 autocast
     def forward(self, z: torch.Tensor, generator: torch.Generator | None = None) -> QuantizeOutput:
         """Quantise ``z (..., C)``; ``ids`` is ``(..., R)`` with −1 for layers dropped in this batch.
 

@@ -38,6 +38,7 @@ import torch
 from torch import nn
 
 from ..paths import cache_path
+from ..precision import resolve_precision
 from ..profiles import get_profile
 from .checkpoint import load_weights, save_weights
 from .device import get_device
@@ -140,11 +141,21 @@ def config_hash(config: Any, extra: dict[str, Any] | None = None) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
-def artefact_dir(name: str, config: Any, profile: str | None = None, extra: dict[str, Any] | None = None) -> Path:
-    """Where the finished model for this (name, profile, config, extra) lives (it may not exist yet)."""
+def artefact_dir(name: str, config: Any, profile: str | None = None, extra: dict[str, Any] | None = None,
+                 device: str | torch.device | None = None) -> Path:  # fmt: skip
+    """Where the finished model for this (name, profile, config, extra, precision) lives (it may not exist yet).
+
+    The precision is the run's, resolved for the device the model trains on (:mod:`motionlab.precision`): a model
+    trained in bf16 is another artefact than the same config trained in fp32.
+    """
     if not name or "/" in name or "\\" in name or name.startswith("."):
         raise ValueError(f"name must be a plain folder name, got {name!r}")
-    return cache_path("models", name, get_profile(profile), config_hash(config, extra))
+    return cache_path("models", name, get_profile(profile), config_hash(config, _keyed(extra, device)))
+
+
+def _keyed(extra: dict[str, Any] | None, device: str | torch.device | None) -> dict[str, Any]:
+    """``extra`` plus the precision the model trains in: what the cache key covers besides the config."""
+    return {**(extra or {}), "precision": resolve_precision(None, get_device(device))}
 
 
 class DamagedArtefactError(ValueError):
@@ -164,8 +175,9 @@ def file_sha256(path: str | os.PathLike) -> str:
     return digest.hexdigest()
 
 
-def is_trained(name: str, config: Any, profile: str | None = None, extra: dict[str, Any] | None = None) -> bool:
-    return (artefact_dir(name, config, profile, extra) / "model.safetensors").is_file()
+def is_trained(name: str, config: Any, profile: str | None = None, extra: dict[str, Any] | None = None,
+               device: str | torch.device | None = None) -> bool:  # fmt: skip
+    return (artefact_dir(name, config, profile, extra, device) / "model.safetensors").is_file()
 
 
 def load_trained(
@@ -182,7 +194,7 @@ def load_trained(
     Damaged files raise :class:`DamagedArtefactError` (a ``ValueError``) naming the file; the folder is left
     in place (:func:`train_or_load` moves it aside and retrains).
     """
-    folder = artefact_dir(name, config, profile, extra)
+    folder = artefact_dir(name, config, profile, extra, device)
     if not (folder / "model.safetensors").is_file():
         raise FileNotFoundError(f"no trained {name!r} for profile {get_profile(profile)!r} at {folder}; train it first")
     model = build_fn(config)
@@ -245,9 +257,10 @@ def move_aside(folder: Path) -> Path:
     return target
 
 
-def load_result(name: str, config: Any, profile: str | None = None, extra: dict[str, Any] | None = None) -> Any:
+def load_result(name: str, config: Any, profile: str | None = None, extra: dict[str, Any] | None = None,
+                device: str | torch.device | None = None) -> Any:  # fmt: skip
     """What ``train_fn`` returned when the model was trained (e.g. its loss history)."""
-    path = artefact_dir(name, config, profile, extra) / "result.json"
+    path = artefact_dir(name, config, profile, extra, device) / "result.json"
     if not path.is_file():
         raise FileNotFoundError(f"no result for {name!r} at {path}")
     return json.loads(path.read_text())
@@ -269,7 +282,7 @@ def train_or_load(
     ``build_fn(config) -> model`` must be deterministic; ``train_fn(model, workdir)`` trains in place,
     may keep resumable checkpoints in ``workdir``, and may return JSON-able results (kept as result.json).
     """
-    final = artefact_dir(name, config, profile, extra)
+    final = artefact_dir(name, config, profile, extra, device)
     probed = None if retrain else _take_probed(final, device)
     if probed is not None:
         return probed
@@ -290,7 +303,7 @@ def train_or_load(
     result = train_fn(model, work)
     ctx = current_context()
     if ctx.is_main:  # under torchrun every rank trained the same weights; one writes them
-        _publish(final, work, model, result, name, config, profile, extra)
+        _publish(final, work, model, result, name, config, profile, _keyed(extra, device))
     barrier(ctx)
     return model.to(get_device(device)).eval()
 

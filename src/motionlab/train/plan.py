@@ -93,8 +93,12 @@ def _describe(todo: Sequence[Job], workers: int) -> str:
     wall = expected_wall_seconds(todo, workers)
     names = ", ".join(job.name for job in todo)
     when = f"about {format_minutes(wall)}" + (f" with {workers} workers" if workers > 1 else "")
-    return (f"to train first ({len(todo)} models, {format_minutes(total)} of CPU on a 2-core reference machine, "
-            f"{when}): {names}")
+    from ..precision import explain_precision
+    from .device import get_device
+
+    precision, why = explain_precision(None, get_device(None))
+    return (f"to train first ({len(todo)} models in {precision}, {why}; {format_minutes(total)} of CPU on a 2-core "
+            f"reference machine, {when}): {names}")
 
 
 def expected_wall_seconds(jobs: Sequence[Job], workers: int) -> float:

@@ -7,6 +7,10 @@ progress bar, validation, checkpoints, resume):
 - ``loss_fn(model, batch, generator) -> {"loss": tensor, ...}``: any extra scalar terms are logged;
   ``generator`` is the *noise* generator (flow-matching noise, diffusion steps, code resets, ...).
 
+``loss_fn`` runs inside the run's precision (:mod:`motionlab.precision`): under ``bf16`` the network's matrix
+products and convolutions run in bfloat16 while parameters, gradients, optimizer moments and EMA stay fp32;
+under ``fp32`` nothing is cast.
+
 Both generators are saved in every checkpoint together with the optimizer moments and torch's global
 RNG (which ``nn.Dropout`` reads; a fresh run seeds it from ``config.seed``), so training N steps in one
 go or N/2 + resume + N/2 produces the same bits. The learning rate is a pure function of the step
@@ -30,6 +34,7 @@ import torch
 from torch import nn
 from tqdm.auto import tqdm
 
+from ..precision import autocast, resolve_precision
 from .checkpoint import latest_checkpoint, load_checkpoint, prune_checkpoints, save_checkpoint
 from .device import get_device, to_device
 from .distributed import (
@@ -106,6 +111,7 @@ class Trainer:
         device: str | torch.device | None = None,
         desc: str = "train",
         progress: bool = True,
+        precision: str | None = None,
     ):
         self.config = config
         # Under torchrun every process holds one replica; see motionlab.train.distributed.
@@ -117,8 +123,13 @@ class Trainer:
         self.loss_fn, self.batch_fn, self.val_fn = loss_fn, batch_fn, val_fn
         self.workdir = Path(workdir) if workdir is not None else None
         self.desc, self.progress = desc, progress and self.dist.is_main
+        # the run's precision unless given: bf16 autocasts the forward pass; parameters, optimizer state, EMA stay fp32
+        self.precision = resolve_precision(precision, self.device)
         params = [p for p in self.model.parameters() if p.requires_grad]
-        self.optimizer = torch.optim.AdamW(params, lr=config.lr, betas=config.betas, weight_decay=config.weight_decay)
+        # fused: one kernel for the whole update (measured faster); fp32 keeps the unfused update, bit for bit as before
+        fused = True if self.precision == "bf16" and self.device.type in ("cpu", "cuda") else None
+        self.optimizer = torch.optim.AdamW(params, lr=config.lr, betas=config.betas, weight_decay=config.weight_decay,
+                                           fused=fused)  # fmt: skip
         self.ema = EMA(self.model, config.ema_decay) if config.ema_decay else None
         # Two streams: data order stays the same when a model changes how much noise it draws.
         self.data_generator = torch.Generator().manual_seed(config.seed)
@@ -142,7 +153,8 @@ class Trainer:
         self.model.train()
         # The global batch is drawn identically on every rank; each keeps its shard.
         batch = to_device(shard_batch(self.batch_fn(self.step, self.data_generator), self.dist), self.device)
-        terms = self.loss_fn(self.model, batch, self.noise_generator)
+        with autocast(self.precision, self.device):
+            terms = self.loss_fn(self.model, batch, self.noise_generator)
         if "loss" not in terms:
             raise ValueError(f"loss_fn must return a dict with a 'loss' entry, got keys {sorted(terms)}")
         loss = terms["loss"]
