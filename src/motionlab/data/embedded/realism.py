@@ -1,9 +1,15 @@
-"""How close is the embedded data to real capture where sJPE looks: the jerk of the feet and wrists.
+"""How close is the embedded data to real capture, on the yardsticks the papers' metrics depend on.
 
-sJPE compares a decoder's jerk with the ground truth's frame by frame, so it is only as meaningful as the
-ground truth's own fine motion: on data without it, any wiggle reads as "noise". These helpers put the
-embedded clips beside real ones (HumanML3D joints, HumanML3D features, CMU BVH takes) on one yardstick,
-the percentiles of the jerk magnitudes sJPE compares (:func:`~motionlab.metrics.sjpe_jerk_magnitudes`).
+* **Fine motion** (sJPE): sJPE compares a decoder's jerk with the ground truth's frame by frame, so it is only
+  as meaningful as the ground truth's own fine motion: on data without it, any wiggle reads as "noise".
+  :func:`jerk_percentiles` gives the percentiles of the jerk magnitudes sJPE compares
+  (:func:`~motionlab.metrics.sjpe_jerk_magnitudes`).
+* **Clip ends** (M2D2M's "ground truth (concat)" Jerk): real clips are cut out of longer takes, so they often
+  begin and end while the body moves, and two of them played back to back jump. :func:`edge_speeds` measures
+  how fast a clip moves at its ends against its middle, :func:`seam_pose_jump` how far the pose jumps where
+  two clips meet.
+
+Real clips (HumanML3D joints and features, CMU BVH takes) are read with :func:`real_reference_clips`.
 """
 
 from __future__ import annotations
@@ -14,8 +20,17 @@ from pathlib import Path
 import numpy as np
 
 from motionlab.metrics.sjpe import sjpe_jerk_magnitudes
+from motionlab.representation import feature_slices, recover_from_ric
+
+from .body import FPS
 
 PERCENTILES = (10, 50, 90)
+EDGE_FRAMES = 5  # a speed is the distance covered in this many frames (0.25 s at 20 fps) over that time
+# An end "moves" when its joints' mean speed reaches this (m/s). The CMU takes where they start or stop standing:
+# 0.02-0.11; the embedded idle pose, with its wobble and sway: 0.04-0.11 (10th-90th percentile); windows cut at
+# random places out of the real takes: median 0.5. A ratio to the clip's own median speed would not do: an arm
+# action's median is hardly above its idle frames' speed.
+MOVING_SPEED = 0.15
 
 
 def jerk_percentiles(clips: Sequence[np.ndarray], percentiles: Sequence[float] = PERCENTILES) -> dict[str, float]:
@@ -28,7 +43,7 @@ def embedded_sample(n: int = 100, *, fine: bool = True, seed: int = 0, n_clips: 
     """Joints ``(T, 22, 3)`` of ``n`` clips spread evenly over a dataset of ``n_clips`` (the same actions and
     parameters the dataset's clips get), through the features and back as the files on disk hold them.
     ``fine=False`` leaves out the fine structure."""
-    from motionlab.representation import joints_to_features, recover_from_ric
+    from motionlab.representation import joints_to_features
 
     from .generator import generate_clip
     from .writer import _rng, plan_families
@@ -44,6 +59,40 @@ def embedded_sample(n: int = 100, *, fine: bool = True, seed: int = 0, n_clips: 
     return out
 
 
+def edge_speeds(features: np.ndarray) -> dict[str, float]:
+    """How fast a clip moves at its ends and in its middle, from its HumanML3D features ``(T, 263)``.
+
+    A speed here is the distance covered in :data:`EDGE_FRAMES` frames (a quarter of a second) divided by that
+    time, in m/s: over so short a span it is the motion, while capture jitter and the embedded data's fine
+    structure, which go back and forth from frame to frame, mostly cancel. Of the root (``root_*``) and
+    averaged over the 22 joints (``joints_*``, world frame, so a walk's travel counts as well as a wave's arm):
+    ``*_start`` over the first frames, ``*_end`` over the last, ``*_mid`` the median over the clip.
+    ``moving_start`` and ``moving_end`` (1.0 or 0.0) say whether the joints' speed there reaches
+    :data:`MOVING_SPEED`.
+    """
+    joints = np.asarray(recover_from_ric(np.asarray(features, np.float32), 22), np.float64)  # (T, 22, 3)
+    if len(joints) < 2 * EDGE_FRAMES + 1:
+        raise ValueError(f"a clip needs at least {2 * EDGE_FRAMES + 1} frames, got {len(joints)}")
+    speed = np.linalg.norm(joints[EDGE_FRAMES:] - joints[:-EDGE_FRAMES], axis=-1) * FPS / EDGE_FRAMES  # (T-k, 22)
+    out = {}
+    for name, s in (("root", speed[:, 0]), ("joints", speed.mean(axis=1))):
+        out |= {f"{name}_start": float(s[0]), f"{name}_end": float(s[-1]), f"{name}_mid": float(np.median(s))}
+    for end in ("start", "end"):
+        out[f"moving_{end}"] = float(out[f"joints_{end}"] >= MOVING_SPEED)
+    return out
+
+
+def seam_pose_jump(before: np.ndarray, after: np.ndarray) -> float:
+    """Mean distance (m) over the joints between the last pose of ``before`` and the first of ``after``
+    (HumanML3D features ``(T, 263)``), in the body's own frame: the jump a concatenation of the two makes.
+
+    The poses are the features' root-relative joint positions (``ric``), which face +z in every frame, so
+    where the clips stand and which way they face does not count, only the posture (and the root height)."""
+    ric = feature_slices()["ric"]
+    a, b = np.asarray(before)[-1, ric].reshape(-1, 3), np.asarray(after)[0, ric].reshape(-1, 3)
+    return float(np.linalg.norm(b - a, axis=-1).mean())
+
+
 def real_reference_clips(root: str | Path) -> dict[str, np.ndarray]:
     """Real joint clips ``(T, 22, 3)`` in metres at 20 fps from a folder laid out like ``../shared/data``.
 
@@ -51,7 +100,6 @@ def real_reference_clips(root: str | Path) -> dict[str, np.ndarray]:
     recovered to joints) and ``cmu-bvh/*.bvh`` (converted with the CMU mapping). Raises if none is found.
     """
     from motionlab.io.bvh_import import bvh_to_joints
-    from motionlab.representation import recover_from_ric
 
     root = Path(root)
     clips: dict[str, np.ndarray] = {}
@@ -66,4 +114,7 @@ def real_reference_clips(root: str | Path) -> dict[str, np.ndarray]:
     return clips
 
 
-__all__ = ["PERCENTILES", "embedded_sample", "jerk_percentiles", "real_reference_clips"]
+__all__ = [
+    "EDGE_FRAMES", "MOVING_SPEED", "PERCENTILES", "edge_speeds", "embedded_sample", "jerk_percentiles",
+    "real_reference_clips", "seam_pose_jump",
+]  # fmt: skip
