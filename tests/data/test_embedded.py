@@ -35,9 +35,12 @@ def _bone_lengths(joints: np.ndarray) -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def clips():
-    """Two clips of every family (seeds 0 and 1) plus a chained one."""
+    """Two whole clips of every family (seeds 0 and 1), two cut out of takes as the dataset's are (seeds 10 and
+    13: both ends cut, and only the start), plus a chained one."""
     out = {(f, s): generate_clip(f, _rng(s)) for f in FAMILIES for s in (0, 1)}
+    out |= {(f, s): generate_clip(f, _rng(s), cuts=True) for f in FAMILIES for s in (10, 13)}
     out[("walk+wave", 0)] = generate_clip("walk+wave", _rng(0))
+    out[("walk+wave", 10)] = generate_clip("walk+wave", _rng(10), cuts=True)
     return out
 
 
@@ -145,10 +148,11 @@ def test_fast_actions_are_jerkier_than_slow_ones():
 
 
 def test_chained_clip_is_flagged_and_captioned_as_a_sequence(clips):
-    clip = clips[("walk+wave", 0)]
-    assert not clip.single_action and clip.families == ("walk", "wave")
-    assert all("then" in c.lower() or "after that" in c.lower() for c in clip.captions)
-    assert [a["family"] for a in clip.params["actions"]] == ["walk", "wave"]
+    for seed in (0, 10):
+        clip = clips[("walk+wave", seed)]
+        assert not clip.single_action and clip.families == ("walk", "wave")
+        assert all("then" in c.lower() or "after that" in c.lower() for c in clip.captions)
+        assert [a["family"] for a in clip.params["actions"]] == ["walk", "wave"]
 
 
 @pytest.mark.parametrize(
@@ -305,3 +309,118 @@ def test_fine_structure_matches_real_capture_jerk(shared_data):
         assert real[p] / 1.5 < ours[p] < real[p] * 1.5, (p, ours[p], real[p])
     without = jerk_percentiles(embedded_sample(100, fine=False))
     assert without["p10"] < real["p10"] / 5  # what version 1 lacked: the quiet frames were far too still
+
+
+# --- clips cut out of takes ---------------------------------------------------------------------------------
+
+N_SAMPLE = 140
+
+
+@pytest.fixture(scope="module")
+def sample() -> list[tuple[np.ndarray, np.ndarray, dict]]:
+    """Features of the first clips of a dataset (seed 0) as the writer builds them, the same clips whole (as
+    version 2 made them), and their meta."""
+    from motionlab.data.embedded.writer import _rng as clip_rng
+    from motionlab.data.embedded.writer import build_clip, plan_families
+
+    out = []
+    for index, spec in enumerate(plan_families(N_SAMPLE, 0)):
+        features, _, _, meta = build_clip(0, index, spec)
+        whole = generate_clip(spec, clip_rng(0, 1, index)).joints
+        out.append((features, joints_to_features(whole, "t2m", retarget_to_target=False), meta))
+    return out
+
+
+def test_most_dataset_clips_begin_and_end_moving(sample):
+    from motionlab.data.embedded.generator import CUT_SHARE
+    from motionlab.data.embedded.realism import edge_speeds
+
+    cut = np.array([[edge_speeds(f)[f"moving_{e}"] for e in ("start", "end")] for f, _, _ in sample])
+    whole = np.array([[edge_speeds(w)[f"moving_{e}"] for e in ("start", "end")] for _, w, _ in sample])
+    assert (cut.mean(axis=0) > 0.35).all(), cut.mean(axis=0)  # about half: a slow move or wind-up reads as still
+    assert (whole.mean(axis=0) < 0.1).all(), whole.mean(axis=0)  # whole clips stand still at both ends
+    kinds = np.array([[m["params"]["starts"], m["params"]["ends"]] for _, _, m in sample])
+    assert set(kinds.ravel()) <= {"rest", "move", "gait"}
+    assert (np.abs((kinds != "rest").mean(axis=0) - CUT_SHARE) < 0.12).all()  # each end cut with CUT_SHARE
+    gait = kinds == "gait"
+    assert gait.any() and cut[gait].mean() > 0.9  # mid-stride is always moving
+    assert cut[kinds == "rest"].mean() < 0.15
+
+
+def test_cutting_makes_concatenations_jerkier_than_single_clips(sample):
+    """M2D2M's "ground truth (concat)" Jerk above its "ground truth (single)": what the cuts are for. Whole clips
+    (version 2) joined at rest gave the opposite."""
+    from motionlab.data.embedded.realism import seam_pose_jump
+    from motionlab.metrics import log_jerk_batch
+    from motionlab.multimotion import concatenate_segments, real_windows, transition_jerk
+
+    def concat(clips):  # four single actions in a row, as chapter 09's test set
+        fours = [clips[i : i + 4] for i in range(0, len(clips) - 3, 4)]
+        jerk = np.concatenate([transition_jerk(*concatenate_segments(f)) for f in fours])
+        jumps = [seam_pose_jump(a, b) for f in fours for a, b in zip(f, f[1:])]
+        return np.nanmean(jerk), np.median(jumps)
+
+    single = [i for i, (_, _, m) in enumerate(sample) if m["single_action"]]
+    cut, whole = [sample[i][0] for i in single], [sample[i][1] for i in single]
+    (cut_jerk, cut_jump), (whole_jerk, whole_jump) = concat(cut), concat(whole)
+    windows = real_windows(cut, 40, 0, n=3 * (len(cut) // 4))
+    single_jerk = np.nanmean(log_jerk_batch(recover_from_ric(np.stack(windows))))
+    assert cut_jump > 1.5 * whole_jump, (cut_jump, whole_jump)  # the pose jumps where two clips meet
+    assert cut_jerk > whole_jerk + 0.15, (cut_jerk, whole_jerk)
+    assert cut_jerk > single_jerk, (cut_jerk, single_jerk)
+
+
+def test_a_take_keeps_counted_actions_whole_and_cuts_into_walks():
+    from motionlab.data.embedded.generator import make_take
+
+    for family, fn in FAMILIES.items():
+        for seed in range(6):
+            segment = fn(_rng(seed), MAX_FRAMES)
+            take = make_take(_rng(100 + seed), [segment], segment.plan, (5, 5), (MIN_FRAMES, MAX_FRAMES))
+            a, b = take.actions
+            assert 0 <= take.start < take.stop <= len(take.plan) and MIN_FRAMES <= take.stop - take.start
+            np.testing.assert_array_equal(take.plan.angles[a:b], segment.plan.angles)  # the action, unchanged
+            if take.stop - take.start == MAX_FRAMES:
+                continue  # trimmed to the longest clip
+            if segment.continuous:  # walks and runs: a cut end is mid-stride
+                assert (take.start > a) == (take.ends[0] == "gait") and (take.stop < b) == (take.ends[1] == "gait")
+            else:  # the captions count repetitions or name a goal: the whole action is shown
+                assert take.start <= a and take.stop >= b, (family, seed, take.ends)
+                assert "gait" not in take.ends
+            if take.ends[0] == "move":  # mid-way through a move from another posture: not at its start pose yet
+                assert not np.allclose(take.plan.angles[take.start], segment.plan.angles[0])
+
+
+def test_cut_clips_honour_the_requested_length():
+    for family in ("walk", "turn", "punch", "run+clap"):
+        for n_frames in (MIN_FRAMES, 120, MAX_FRAMES):
+            for seed in (10, 11, 13):
+                clip = generate_clip(family, _rng(seed), cuts=True, n_frames=n_frames)
+                assert len(clip.joints) == n_frames, (family, n_frames, seed, clip.params)
+                assert np.isfinite(clip.joints).all()
+
+
+def test_cuts_change_the_window_not_the_action():
+    for family in ("walk", "wave", "squat"):
+        whole, cut = generate_clip(family, _rng(10)), generate_clip(family, _rng(10), cuts=True)
+        again = generate_clip(family, _rng(10), cuts=True)
+        np.testing.assert_array_equal(cut.joints, again.joints)  # deterministic
+        assert cut.captions == again.captions and cut.params == again.params
+        window = {"lead_in_s", "lead_out_s", "starts", "ends"}
+        assert {k: v for k, v in whole.params.items() if k not in window} == {
+            k: v for k, v in cut.params.items() if k not in window}  # fmt: skip
+        assert whole.params["starts"] == whole.params["ends"] == "rest"
+        assert cut.params["starts"] != "rest" and cut.params["lead_in_s"] == 0.0
+        assert not any("stands still" in c for c in cut.captions)  # it does not: it starts moving
+
+
+def test_real_clips_cut_out_of_takes_begin_moving(shared_data):
+    """The yardstick on real data: the CMU takes (whole "start, walk, stop" recordings) begin at rest, windows
+    cut out of them mid-take do not. CMU data: mocap.cs.cmu.edu, created with funding from NSF EIA-0196217."""
+    from motionlab.data.embedded.realism import edge_speeds
+    from motionlab.io.bvh_import import bvh_to_features
+
+    for take in ("131_02", "131_03"):
+        path = shared_data / "cmu-bvh" / f"{take}.bvh"
+        assert edge_speeds(bvh_to_features(path))["moving_start"] == 0.0
+        assert edge_speeds(bvh_to_features(path, start=100, end=161))["moving_start"] == 1.0

@@ -143,7 +143,7 @@ def walk(rng, max_frames, *, direction=None, speed=None, path=None, duration=Non
     phrases.append(" ".join(w for w in ("takes a few steps", where[0], curve) if w))
     params = {"direction": direction, "speed": speed, "path": path, "turn_rate_deg_s": round(turn_rate, 2),
               "cadence": round(style.cadence, 3), "duration_s": round(n / FPS, 2)}  # fmt: skip
-    return Segment(Plan.still(angles, yaw), phrases, params, stationary=False)
+    return Segment(Plan.still(angles, yaw), phrases, params, stationary=False, continuous=True)
 
 
 def run(rng, max_frames, *, speed=None, path=None, duration=None) -> Segment:
@@ -179,7 +179,7 @@ def run(rng, max_frames, *, speed=None, path=None, duration=None) -> Segment:
     params = {"speed": speed, "path": path, "turn_rate_deg_s": round(turn_rate, 2),
               "cadence": round(style.cadence, 3), "duration_s": round(n / FPS, 2)}  # fmt: skip
     plan = Plan(angles, yaw, lift, airborne, np.full((n, 3), np.nan))
-    return Segment(plan, phrases, params, stationary=False)
+    return Segment(plan, phrases, params, stationary=False, continuous=True)
 
 
 def side_step(rng, max_frames, *, direction=None, steps=None) -> Segment:

@@ -39,10 +39,12 @@ def jerk_percentiles(clips: Sequence[np.ndarray], percentiles: Sequence[float] =
     return {f"p{p:g}": float(np.percentile(magnitudes, p)) for p in percentiles}
 
 
-def embedded_sample(n: int = 100, *, fine: bool = True, seed: int = 0, n_clips: int = 3000) -> list[np.ndarray]:
-    """Joints ``(T, 22, 3)`` of ``n`` clips spread evenly over a dataset of ``n_clips`` (the same actions and
-    parameters the dataset's clips get), through the features and back as the files on disk hold them.
-    ``fine=False`` leaves out the fine structure."""
+def embedded_sample(
+    n: int = 100, *, fine: bool = True, cuts: bool = True, seed: int = 0, n_clips: int = 3000
+) -> list[np.ndarray]:
+    """Joints ``(T, 22, 3)`` of ``n`` clips spread evenly over a dataset of ``n_clips`` (the clips the dataset
+    gets), through the features and back as the files on disk hold them. ``fine=False`` leaves out the fine
+    structure, ``cuts=False`` the cuts (each clip shows its whole action, from rest to rest)."""
     from motionlab.representation import joints_to_features
 
     from .generator import generate_clip
@@ -53,7 +55,7 @@ def embedded_sample(n: int = 100, *, fine: bool = True, seed: int = 0, n_clips: 
     specs = plan_families(n_clips, seed)
     out = []
     for index in np.linspace(0, n_clips - 1, n).astype(int):
-        clip = generate_clip(specs[index], _rng(seed, 1, int(index)), fine=fine)
+        clip = generate_clip(specs[index], _rng(seed, 1, int(index)), fine=fine, cuts=cuts)
         features = joints_to_features(clip.joints, "t2m", retarget_to_target=False)
         out.append(np.asarray(recover_from_ric(features, 22)))
     return out

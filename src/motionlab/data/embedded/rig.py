@@ -201,3 +201,4 @@ class Segment:
     phrases: list[str]  # third-person verb phrases, e.g. "walks forward slowly" (at least three)
     params: dict  # JSON-serialisable parameters (family-specific)
     stationary: bool = True  # done while standing in place (captions may say "while standing")
+    continuous: bool = False  # a steady activity with no count or goal (walking, running): may be cut into anywhere

@@ -80,7 +80,7 @@ def stratified_splits(specs: list[str], seed: int) -> dict[str, list[str]]:
 
 def build_clip(seed: int, index: int, spec: str) -> tuple[np.ndarray, np.ndarray, list[str], dict]:
     """Features ``(T-1, 263)``, joints ``(T-1, 22, 3)`` (both float32), caption lines and meta of one clip."""
-    clip = generate_clip(spec, _rng(seed, 1, index))
+    clip = generate_clip(spec, _rng(seed, 1, index), cuts=True)
     # The clip is already on the target skeleton, so retargeting would change nothing but the run time.
     features = joints_to_features(clip.joints, "t2m", retarget_to_target=False).astype(np.float32)
     joints = recover_from_ric(features, 22).astype(np.float32)
