@@ -176,3 +176,52 @@ def embed_animation(anim, close: bool = True, default_mode: str = "loop"):
 
         plt.close(anim._fig)
     return HTML(html)
+
+
+def display_path(path: str | Path) -> str:
+    """``path`` as a page may show it: inside the cache root as ``<motionlab cache>/...``, inside the home folder as
+    ``~/...``. A rendered book must not carry the absolute paths of the machine that built it."""
+    from motionlab.paths import cache_dir
+
+    path = Path(path).expanduser().resolve()
+    for root, shown in ((cache_dir().resolve(), "<motionlab cache>"), (Path.home().resolve(), "~")):
+        if path == root or root in path.parents:
+            return str(Path(shown, path.relative_to(root)))
+    return str(path)
+
+
+class FindingsBox:
+    """The box "What this chapter found" near a chapter's top: shown where :func:`findings_box` is called, filled by
+    :meth:`update` once the chapter has recorded its numbers (the executed notebook, and so the book, keep the
+    filled box in place)."""
+
+    def __init__(self, chapter: str) -> None:
+        from motionlab.results import CHAPTERS
+
+        if chapter not in CHAPTERS:
+            raise ValueError(f"chapter must be a results prefix, one of {sorted(CHAPTERS)}; got {chapter!r}")
+        import uuid
+
+        from IPython.display import HTML, display
+
+        self.chapter = chapter
+        self.display_id = f"motionlab-findings-{chapter}-{uuid.uuid4().hex[:8]}"
+        display(HTML('<div class="admonition note ml-findings"><p class="admonition-title">What this chapter found</p>'
+                     "<p>Run the chapter to its end: this box then lists its findings, generated from the numbers "
+                     "it records.</p></div>"), display_id=self.display_id)
+
+    def update(self, profile: str | None = None):
+        """Judge the chapter's claims and findings on its recorded numbers and show them in the box; return them."""
+        from IPython.display import HTML, update_display
+
+        from motionlab.results import chapter_findings
+
+        findings = chapter_findings(self.chapter, profile)
+        update_display(HTML(findings._repr_html_()), display_id=self.display_id)
+        return findings
+
+
+def findings_box(chapter: str) -> FindingsBox:
+    """Show "What this chapter found" for ``chapter`` (a results prefix such as ``"discord"``) here; call
+    ``.update(profile)`` on the returned box after the chapter's last ``results.record``."""
+    return FindingsBox(chapter)

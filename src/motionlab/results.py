@@ -107,9 +107,45 @@ class Result:
             text += f" [{_fmt(self.ci[0])}, {_fmt(self.ci[1])}]"
         return f"{text} {self.unit}" if self.unit else text
 
+    def describe(self) -> str:
+        """``0.412 ± 0.013 mm``: for a reader. The interval is shown only where it has width (a deterministic value,
+        or one decoded once, carries none), to two significant digits, with the value rounded to match."""
+        return format_estimate(self.value, self.ci, self.unit)
+
 
 def _fmt(x: float) -> str:
     return f"{x:.4g}"
+
+
+def _number(x: float, decimals: int | None = None, significant: int = 3) -> str:
+    """``x`` to ``significant`` digits (or ``decimals`` places), without exponents in the usual range."""
+    if decimals is None:
+        size = abs(x)
+        if size == 0:
+            return "0"
+        if size >= 10 ** significant:
+            return f"{x:,.0f}"
+        if size < 1e-3:
+            return f"{x:.{significant - 1}g}"
+        decimals = max(0, significant - 1 - math.floor(math.log10(size)))
+    return f"{x:.{decimals}f}"
+
+
+def format_estimate(value: float, ci: tuple[float, float] | None = None, unit: str | None = None,
+                    significant: int = 3) -> str:
+    """``3.62 ± 0.011``, ``25 (95% CI 3 to 53)`` or ``0.216``: a value with its 95% interval and unit, for reading."""
+    low, high = ci if ci is not None else (value, value)
+    half = max(value - low, high - value)
+    scale = max(abs(value), abs(low), abs(high), 1e-12)
+    if half <= 1e-9 * scale:  # no interval, or one of zero width: nothing to show
+        text = _number(value, significant=significant)
+    else:
+        decimals = min(8, max(0, 1 - math.floor(math.log10(half))))  # two significant digits of the half-width
+        if abs((value - low) - (high - value)) <= 1e-6 * scale:
+            text = f"{_number(value, decimals)} ± {_number(half, decimals)}"
+        else:
+            text = f"{_number(value, decimals)} (95% CI {_number(low, decimals)} to {_number(high, decimals)})"
+    return f"{text} {unit}" if unit else text
 
 
 def results_dir(profile: str | None = None) -> Path:
@@ -220,6 +256,142 @@ def load_all(profile: str | None = None) -> dict[str, Result]:
 
 
 # ----------------------------------------------------------------------------------------------
+# What each key measures, for sentences a reader can follow (no raw keys on a page)
+
+# ``chapter/key`` -> (quantity, condition). Every key a claim, a mechanism or a chapter finding reads has one (a test
+# checks); a key without one (an ad-hoc claim) is shown by its name.
+QUANTITIES: dict[str, tuple[str, str]] = {
+    # 01 Motion as data
+    "motion_data/roundtrip_error": ("largest joints → features → joints error", ""),
+    "motion_data/wrist_jerk_slow": ("mean wrist jerk", "a slow clip"),
+    "motion_data/wrist_jerk_noisy": ("mean wrist jerk", "the same clip + 5 mm noise"),
+    "motion_data/wrist_jerk_fast": ("mean wrist jerk", "a fast clip"),
+    # 02 Vector quantization
+    "vq/mpjpe_vq": ("MPJPE", "VQ, one codebook"),
+    "vq/mpjpe_rvq": ("MPJPE", "residual VQ"),
+    "vq/static_sjpe_ff_vq": ("Static sJPE", "VQ decoder"),
+    "vq/static_sjpe_ff_rvq": ("Static sJPE", "residual VQ decoder"),
+    "vq/noise_sjpe_ff_vq": ("Noise sJPE", "VQ decoder"),
+    "vq/noise_sjpe_ff_rvq": ("Noise sJPE", "residual VQ decoder"),
+    "vq/sjpe_ff_vq": ("sJPE", "VQ decoder"),
+    "vq/sjpe_ff_rvq": ("sJPE", "residual VQ decoder"),
+    # 03 Rectified flow
+    "flow/straightness_unconditional": ("path straightness (chord/arc)", "unconditional field"),
+    "flow/straightness_conditional": ("path straightness (chord/arc)", "class-conditional field"),
+    "flow/energy_unconditional_euler_nfe1": ("energy distance to the data", "unconditional, 1 Euler step"),
+    "flow/energy_conditional_euler_nfe1": ("energy distance to the data", "conditional, 1 Euler step"),
+    "flow/energy_unconditional_euler_nfe16": ("energy distance to the data", "unconditional, 16 Euler steps"),
+    "flow/energy_unconditional_midpoint_nfe30": ("energy distance to the data", "unconditional, 15 midpoint steps"),
+    "flow/energy_floor": ("energy distance", "two samples of the data (the noise floor)"),
+    # 04 Condition projection
+    "projection/heldout_mse_stacked": ("held-out reconstruction MSE", "stacked projection"),
+    "projection/heldout_mse_repeat_linear": ("held-out reconstruction MSE", "repeat & linear"),
+    # 05 DisCoRD
+    "discord/sjpe_rf": ("sJPE", "flow decoder"),
+    "discord/sjpe_ff": ("sJPE", "feed-forward decoder"),
+    "discord/noise_sjpe_rf": ("Noise sJPE", "flow decoder"),
+    "discord/noise_sjpe_ff": ("Noise sJPE", "feed-forward decoder"),
+    "discord/static_sjpe_rf": ("Static sJPE", "flow decoder"),
+    "discord/static_sjpe_ff": ("Static sJPE", "feed-forward decoder"),
+    "discord/fid_rf": ("reconstruction FID", "flow decoder"),
+    "discord/fid_ff": ("reconstruction FID", "feed-forward decoder"),
+    "discord/mpjpe_rf": ("MPJPE", "flow decoder"),
+    "discord/mpjpe_ff": ("MPJPE", "feed-forward decoder"),
+    "discord/fid_steps2": ("FID", "2 steps"),
+    "discord/fid_steps16": ("FID", "16 steps"),
+    "discord/sjpe_steps2": ("sJPE", "2 steps"),
+    "discord/sjpe_steps16": ("sJPE", "16 steps"),
+    "discord/time_steps2": ("time to decode a batch", "2 steps"),
+    "discord/time_steps16": ("time to decode a batch", "16 steps"),
+    "discord/time_ff": ("time to decode a batch", "feed-forward decoder"),
+    # 06 sJPE
+    "sjpe/noise_sjpe_low": ("Noise sJPE", "low noise"),
+    "sjpe/noise_sjpe_mid": ("Noise sJPE", "medium noise"),
+    "sjpe/noise_sjpe_high": ("Noise sJPE", "high noise"),
+    "sjpe/static_sjpe_high": ("Static sJPE", "high noise"),
+    # 07 Discrete diffusion
+    "diffusion/fid_guided": ("FID", "guided, s = 4"),
+    "diffusion/fid_unguided": ("FID", "unguided, s = 0"),
+    "diffusion/nll_uncond_xt": ("NLL of the true code at t = T", "unconditional branch"),
+    "diffusion/unigram_entropy": ("entropy", "the code frequencies"),
+    "diffusion/entropy_xt_s0": ("entropy of p(x0 | x_T)", "s = 0"),
+    "diffusion/entropy_xt_s4": ("entropy of p(x0 | x_T)", "s = 4"),
+    "diffusion/hist_tv_s0": ("code-histogram TV to real tokens", "s = 0"),
+    "diffusion/hist_tv_s4": ("code-histogram TV to real tokens", "s = 4"),
+    "diffusion/repeat_rate_real": ("adjacent repeats", "real tokens"),
+    "diffusion/repeat_rate_s0": ("adjacent repeats", "s = 0"),
+    "diffusion/repeat_rate_s4": ("adjacent repeats", "s = 4"),
+    "diffusion/top3_unguided": ("R-Top3", "s = 0"),
+    "diffusion/top3_guided": ("R-Top3", "s = 4"),
+    # 08 Dynamic transitions
+    "transitions/fid_dynamic": ("FID", "dynamic β(t, d)"),
+    "transitions/fid_uniform": ("FID", "uniform β_t"),
+    "transitions/max_tv_eta0.25": ("largest TV", "η = 0.25"),
+    "transitions/max_tv_eta0.5": ("largest TV", "η = 0.5"),
+    "transitions/max_tv_eta2": ("largest TV", "η = 2"),
+    "transitions/kbeta_bar_t": ("the cap K·β̄_T", ""),
+    "transitions/fid_dynamic_minus_uniform": ("FID, dynamic − uniform", ""),
+    "transitions/fid_seed_gap_dynamic": ("FID, seed 1 − seed 0", "dynamic"),
+    "transitions/fid_seed_gap_uniform": ("FID, seed 1 − seed 0", "uniform"),
+    # 09 Two-Phase Sampling
+    "tps/jerk_gt_single": ("transition Jerk", "real single motions"),
+    "tps/jerk_gt_concat": ("transition Jerk", "real motions concatenated"),
+    "tps/jerk_tps": ("transition Jerk", "TPS"),
+    "tps/jerk_independent": ("transition Jerk", "independent sampling"),
+    "tps/jerk_handshake": ("transition Jerk", "Handshake"),
+    "tps/jerk_slerp": ("transition Jerk", "SLERP"),
+    "tps/jerk_tps_uniform": ("transition Jerk", "TPS, uniform β_t"),
+    "tps/fid_ts100": ("individual-motion FID", "T_s = T"),
+    "tps/fid_ts90": ("individual-motion FID", "T_s = 0.9 T"),
+    "tps/fid_ts50": ("individual-motion FID", "T_s = 0.5 T"),
+    "tps/fid_handshake": ("individual-motion FID", "Handshake"),
+}
+
+
+def quantity(key: str) -> tuple[str, str]:
+    """``(quantity, condition)`` of a ``chapter/key``: ``("sJPE", "flow decoder")``."""
+    return QUANTITIES.get(key, (key.split("/", 1)[-1], ""))
+
+
+def _relation(a: Result | None, b: Result | None) -> str:
+    if a is None or b is None:
+        return "vs"
+    return "<" if a.value < b.value else ">" if a.value > b.value else "="
+
+
+def describe_values(keys: Sequence[str], recorded: Mapping[str, Result], compare: bool = True,
+                    name: bool = True) -> str:
+    """Our numbers for ``keys`` as a phrase: ``sJPE: 3.62 ± 0.011 (flow decoder) > 2.57 (feed-forward decoder)``.
+
+    Keys of one quantity share its name, each value followed by its condition. With ``compare``, neighbouring values
+    are joined by how they compare (``<``, ``>``, ``=``); else by commas. ``name=False`` leaves out a shared quantity
+    (the caller has named it). A key not recorded reads "not yet measured". Two different values never read alike:
+    where three digits would print them equal, both get more.
+    """
+    names = [quantity(k)[0] for k in keys]
+    shared = len(set(names)) == 1
+    values = [recorded[k].describe() if k in recorded else "not yet measured" for k in keys]
+    for i in range(1, len(keys)):
+        a, b = recorded.get(keys[i - 1]), recorded.get(keys[i])
+        if a is not None and b is not None and a.value != b.value and values[i - 1] == values[i]:
+            for digits in range(4, 8):
+                values[i - 1], values[i] = (format_estimate(r.value, r.ci, r.unit, significant=digits) for r in (a, b))
+                if values[i - 1] != values[i]:
+                    break
+    text = ""
+    for i, key in enumerate(keys):
+        quantity_name, condition = quantity(key)
+        if shared:
+            part = f"{values[i]} ({condition})" if condition else values[i]
+        else:
+            part = f"{quantity_name} ({condition}) {values[i]}" if condition else f"{quantity_name} {values[i]}"
+        if i:
+            text += f" {_relation(recorded.get(keys[i - 1]), recorded.get(key))} " if compare else ", "
+        text += part
+    return f"{names[0]}: {text}" if shared and name else text
+
+
+# ----------------------------------------------------------------------------------------------
 # Rules: how one claim is judged from recorded results
 
 
@@ -257,6 +429,10 @@ class Less:
     def describe(self) -> str:
         return f"{self.a} < {self.b}"
 
+    def sentence(self, r: Mapping[str, Result]) -> str:
+        """Our numbers for the rule's keys, for a reader (``describe`` is the rule itself)."""
+        return describe_values(self.keys, r)
+
 
 @dataclass(frozen=True)
 class Greater(Less):
@@ -288,6 +464,9 @@ class Between:
     def describe(self) -> str:
         return f"{self.low} < {self.x} < {self.high}"
 
+    def sentence(self, r: Mapping[str, Result]) -> str:
+        return describe_values((self.low, self.x, self.high), r)
+
 
 @dataclass(frozen=True)
 class Increasing:
@@ -305,6 +484,9 @@ class Increasing:
 
     def describe(self) -> str:
         return " < ".join(self.ordered)
+
+    def sentence(self, r: Mapping[str, Result]) -> str:
+        return describe_values(self.ordered, r)
 
 
 @dataclass(frozen=True)
@@ -326,24 +508,54 @@ class Within:
     def describe(self) -> str:
         return f"{self.a} within ±{self.rel_tol:.0%} of {self.b}"
 
+    def sentence(self, r: Mapping[str, Result]) -> str:
+        text = describe_values(self.keys, r, compare=False)
+        if self.a in r and self.b in r and r[self.b].value:
+            a, b = r[self.a].value, r[self.b].value
+            gap = abs(a - b) / abs(b)
+            apart = f"{gap:.0%} apart" if gap <= 1 or not a else f"{max(abs(a / b), abs(b / a)):.3g} times apart"
+            text += f": {apart} (the claim allows {self.rel_tol:.0%})"
+        return text
 
-Rule = Less | Greater | Between | Increasing | Within
+
+@dataclass(frozen=True)
+class AtMost:
+    """``x <= limit``: a measured error stays below a tolerance (the limit is a setting, never a result)."""
+
+    x: str
+    limit: float
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        return (self.x,)
+
+    def judge(self, r: Mapping[str, Result]) -> str:
+        return HOLDS if r[self.x].value <= self.limit else FAILS
+
+    def describe(self) -> str:
+        return f"{self.x} <= {self.limit:g}"
+
+    def sentence(self, r: Mapping[str, Result]) -> str:
+        unit = r[self.x].unit if self.x in r else None
+        return f"{describe_values(self.keys, r)} (at most {format_estimate(self.limit, unit=unit)})"
+
+
+Rule = Less | Greater | Between | Increasing | Within | AtMost
 
 
 @dataclass(frozen=True)
 class Evidence:
     """A measured quantity that explains a verdict (the *mechanism*, not the verdict): a label and the keys shown.
 
-    It never changes the verdict; the table prints ``label: key = value, ...`` from the recorded numbers.
+    It never changes the verdict; the table prints ``label: value (condition), ...`` from the recorded numbers (each
+    key's quantity and condition come from :data:`QUANTITIES`).
     """
 
     label: str
     keys: tuple[str, ...]
 
     def format(self, recorded: Mapping[str, Result]) -> str:
-        parts = [f"{k.split('/', 1)[-1]} = {recorded[k].format()}" if k in recorded else f"{k.split('/', 1)[-1]}: —"
-                 for k in self.keys]  # fmt: skip
-        return f"{self.label}: " + ", ".join(parts)
+        return f"{self.label}: {describe_values(self.keys, recorded, compare=False, name=False)}"
 
 
 @dataclass(frozen=True)
@@ -505,15 +717,34 @@ class ClaimRow:
     paper_value: str
     rule: str
     chapter: str
-    ours: str
+    ours: str  # our numbers as a phrase, with units and intervals (see describe_values)
     verdict: str
     missing: tuple[str, ...] = ()
     mechanism: str = ""  # one line per Evidence, from the recorded numbers ("" when the claim has none)
 
 
+VERDICT_COLOURS = {HOLDS: "#1a7f37", FAILS: "#cf222e", INCONCLUSIVE: "#9a6700", MISSING: "#57606a"}
+
+
+def _verdict_html(verdict: str) -> str:
+    style = f"color:{VERDICT_COLOURS[verdict]};font-weight:bold"
+    return f'<span class="ml-verdict" style="{style}">{html.escape(verdict)}</span>'
+
+
+def count_sentence(counts: Mapping[str, int], noun: str = "claims") -> str:
+    """``5 of 11 claims hold, 4 do not hold, 2 inconclusive``: the verdicts of a group, in words."""
+    total = sum(counts.values())
+    parts = [f"{counts.get(HOLDS, 0)} of {total} {noun} hold"]
+    parts += [f"{counts[v]} {'do not hold' if v == FAILS else v}" for v in (FAILS, INCONCLUSIVE, MISSING)
+              if counts.get(v)]
+    return ", ".join(parts)
+
+
 @dataclass
 class ClaimsTable:
-    """Rows of :func:`claims_table`; renders as HTML in Jupyter and in the book."""
+    """Rows of :func:`claims_table`; renders as HTML in Jupyter and in the book: a summary line per paper, then
+    one row per claim (verdict, claim, the paper's number, ours as a phrase) and, under a claim whose mechanism was
+    measured, a full-width line with it."""
 
     rows: list[ClaimRow] = field(default_factory=list)
     profile: str = "laptop"
@@ -527,46 +758,55 @@ class ClaimsTable:
     def counts(self) -> dict[str, int]:
         return {v: sum(row.verdict == v for row in self.rows) for v in VERDICTS}
 
-    def _repr_html_(self) -> str:
-        # Four columns so the table fits a book page; the verdict comes first because it is the news.
-        colour = {HOLDS: "#1a7f37", FAILS: "#cf222e", INCONCLUSIVE: "#9a6700", MISSING: "#57606a"}
-        esc = html.escape
-        lines = [f'<div style="overflow-x:auto"><table class="claims-table" style="font-size:0.85em">'
-                 f"<caption>Claims vs. our measurements (profile <code>{esc(self.profile)}</code>)</caption>",
-                 "<thead><tr><th>Verdict</th><th>Claim</th><th>Paper</th><th>Ours</th></tr></thead><tbody>"]
+    def by_paper(self) -> dict[str, dict[str, int]]:
+        """``{paper: {verdict: count}}``, papers in the order of the rows."""
+        out: dict[str, dict[str, int]] = {}
         for row in self.rows:
-            verdict = f'<td style="color:{colour[row.verdict]};font-weight:bold">{esc(row.verdict)}</td>'
-            why = "".join(f"<br><small><i>measured mechanism:</i> {esc(line)}</small>"
-                          for line in row.mechanism.split("\n") if line)  # fmt: skip
-            claim = (f"<td>{esc(row.statement)}<br><small>{esc(row.paper)}, {esc(row.source)} &middot; "
-                     f"chapter {esc(row.chapter)}</small>{why}</td>")
-            ours = "<br>".join(f'<code style="overflow-wrap:anywhere">{esc(line)}</code>'
-                               for line in row.ours.split("\n"))
-            lines.append(f"<tr>{verdict}{claim}<td>{esc(row.paper_value)}</td><td>{ours}</td></tr>")
-        lines.append("</tbody></table></div>")
-        return "\n".join(lines)
+            out.setdefault(row.paper, dict.fromkeys(VERDICTS, 0))[row.verdict] += 1
+        return out
+
+    def summary(self) -> list[str]:
+        """One line per paper: ``DisCoRD: 5 of 11 claims hold, 4 do not hold, 2 inconclusive``."""
+        return [f"{paper}: {count_sentence(counts)}" for paper, counts in self.by_paper().items()]
+
+    def _repr_html_(self) -> str:
+        esc = html.escape
+        out = ['<div class="ml-claims">']
+        for paper, counts in self.by_paper().items():
+            out.append(f'<p class="ml-claims-summary" style="margin:0.2em 0"><b>{esc(paper)}</b>: '
+                       f"{esc(count_sentence(counts))}.</p>")
+        out += ['<table class="ml-claims-table" style="width:100%;font-size:0.9em">',
+                f"<caption>Claims vs. our measurements (profile <code>{esc(self.profile)}</code>)</caption>",
+                '<colgroup><col style="width:7.5em"><col style="width:36%"><col style="width:24%"><col></colgroup>',
+                "<thead><tr><th>Verdict</th><th>Claim</th><th>Paper</th><th>Ours</th></tr></thead><tbody>"]
+        for row in self.rows:
+            claim = (f"{esc(row.statement)}<br><small>{esc(row.paper)}, {esc(row.source)} &middot; "
+                     f"chapter {esc(row.chapter)}</small>")
+            out.append(f"<tr><td>{_verdict_html(row.verdict)}</td><td>{claim}</td><td>{esc(row.paper_value)}</td>"
+                       f"<td>{esc(row.ours)}</td></tr>")
+            if row.mechanism:
+                lines = "<br>".join(esc(line) for line in row.mechanism.split("\n") if line)
+                out.append(f'<tr class="ml-mechanism"><td></td><td colspan="3"><small><b>Why, as measured:</b> '
+                           f"{lines}</small></td></tr>")
+        out.append("</tbody></table></div>")
+        return "\n".join(out)
 
     def to_markdown(self) -> str:
-        out = ["| Paper | Where | Claim | Paper | Ours | Verdict | Measured mechanism |", "|---" * 7 + "|"]
+        out = [f"- {line}" for line in self.summary()] + [""]
+        out += ["| Paper | Where | Claim | Paper | Ours | Verdict | Measured mechanism |", "|---" * 7 + "|"]
         for r in self.rows:
-            cells = (r.paper, r.source, r.statement, r.paper_value, r.ours.replace("\n", "; "), r.verdict,
-                     r.mechanism.replace("\n", "; "))
+            cells = (r.paper, r.source, r.statement, r.paper_value, r.ours, r.verdict, r.mechanism.replace("\n", "; "))
             out.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
         return "\n".join(out)
 
 
 def judge(claim: Claim, recorded: Mapping[str, Result]) -> ClaimRow:
-    """One row: the claim, our numbers for its keys, and the verdict."""
+    """One row: the claim, our numbers for its keys (a phrase with units and intervals), and the verdict."""
     missing = tuple(k for k in claim.keys if k not in recorded)
-    # Keys of one chapter are shown without the "chapter/" prefix (the row names the chapter).
-    one_chapter = len({k.split("/", 1)[0] for k in claim.keys}) == 1
-    label = {k: k.split("/", 1)[-1] if one_chapter else k for k in claim.keys}
-    ours = "\n".join(f"{label[k]} = {recorded[k].format()}" if k in recorded else f"{label[k]}: —"
-                      for k in claim.keys)
     verdict = MISSING if missing else claim.rule.judge(recorded)
     mechanism = "\n".join(e.format(recorded) for e in claim.mechanism)
     return ClaimRow(claim.paper, claim.source, claim.statement, claim.paper_value, claim.rule.describe(),
-                    claim.chapter, ours, verdict, missing, mechanism)
+                    claim.chapter, claim.rule.sentence(recorded), verdict, missing, mechanism)
 
 
 def claims_table(profile: str | None = None, recorded: Mapping[str, Result] | None = None,
@@ -575,3 +815,107 @@ def claims_table(profile: str | None = None, recorded: Mapping[str, Result] | No
     profile = get_profile(profile)
     recorded = load_all(profile) if recorded is None else recorded
     return ClaimsTable([judge(c, recorded) for c in claims], profile)
+
+
+# ----------------------------------------------------------------------------------------------
+# What a chapter found: the box near each chapter's top
+
+
+@dataclass(frozen=True)
+class Finding:
+    """A chapter's own result (not a paper's claim), judged like a claim on the chapter's recorded numbers."""
+
+    statement: str
+    rule: Rule
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        return self.rule.keys
+
+
+# Per chapter prefix: what the chapter shows besides the papers' claims (chapters 01-03 test no claim of a paper).
+FINDINGS: dict[str, tuple[Finding, ...]] = {
+    "motion_data": (
+        Finding("HumanML3D's features give the joints back exactly (up to canonicalisation).",
+                AtMost("motion_data/roundtrip_error", 1e-5)),
+        Finding("Frame-wise noise too small to see in a trajectory multiplies the jerk.",
+                Less("motion_data/wrist_jerk_slow", "motion_data/wrist_jerk_noisy")),
+    ),
+    "vq": (
+        Finding("Residual quantization reconstructs positions more closely than one codebook.",
+                Less("vq/mpjpe_rvq", "vq/mpjpe_vq")),
+        Finding("It also keeps more of the fast motion: less jerk lost (Static sJPE).",
+                Less("vq/static_sjpe_ff_rvq", "vq/static_sjpe_ff_vq")),
+        Finding("Neither feed-forward decoder reproduces the jerk profile: the residual VQ's sJPE stays far from 0.",
+                Less("vq/noise_sjpe_ff_rvq", "vq/sjpe_ff_rvq")),
+    ),
+    "flow": (
+        Finding("A condition (the class) straightens the learned paths.",
+                Greater("flow/straightness_conditional", "flow/straightness_unconditional")),
+        Finding("With a condition, one network evaluation already lands near the data.",
+                Less("flow/energy_conditional_euler_nfe1", "flow/energy_unconditional_euler_nfe1")),
+        Finding("Without one, more evaluations are needed: 16 Euler steps beat 1.",
+                Less("flow/energy_unconditional_euler_nfe16", "flow/energy_unconditional_euler_nfe1")),
+    ),
+}
+
+
+@dataclass(frozen=True)
+class FindingRow:
+    verdict: str
+    statement: str
+    ours: str
+    source: str  # "DisCoRD, Table 1" for a paper's claim, "" for the chapter's own finding
+
+
+@dataclass
+class ChapterFindings:
+    """What one chapter found, judged on its recorded numbers; renders as a box (HTML) in Jupyter and the book."""
+
+    chapter: str
+    profile: str
+    rows: list[FindingRow] = field(default_factory=list)
+
+    def counts(self) -> dict[str, int]:
+        return {v: sum(row.verdict == v for row in self.rows) for v in VERDICTS}
+
+    def _repr_html_(self) -> str:
+        esc = html.escape
+        items = []
+        for row in self.rows:
+            source = f' <small class="ml-source">({esc(row.source)})</small>' if row.source else ""
+            items.append(f"<li>{_verdict_html(row.verdict)}: {esc(row.statement)}{source}<br>"
+                         f'<small class="ml-ours">ours: {esc(row.ours)}</small></li>')
+        claims = sum(bool(row.source) for row in self.rows)
+        summary = count_sentence(self.counts(), "claims of the papers" if claims == len(self.rows) else "statements")
+        body = "\n".join(items) if items else "<li>This chapter recorded nothing yet.</li>"
+        return (f'<div class="admonition note ml-findings" style="border-left:4px solid #1a7f37;padding:0.3em 0.9em">'
+                f'<p class="admonition-title" style="font-weight:bold">What this chapter found: {esc(summary)}</p>'
+                f'<ul style="margin:0.2em 0 0.4em 0">{body}</ul>'
+                f'<p style="margin:0"><small>Generated from the numbers this chapter recorded (profile '
+                f"<code>{esc(self.profile)}</code>); <i>What reproduces</i> judges every claim of both papers."
+                "</small></p></div>")
+
+    def _repr_markdown_(self) -> str:
+        lines = [f"**What this chapter found** (profile `{self.profile}`):", ""]
+        lines += [f"- **{r.verdict}**: {r.statement}" + (f" ({r.source})" if r.source else "") + f" Ours: {r.ours}."
+                  for r in self.rows]
+        return "\n".join(lines)
+
+
+def chapter_findings(chapter: str, profile: str | None = None,
+                     recorded: Mapping[str, Result] | None = None) -> ChapterFindings:
+    """The papers' claims judged on keys of ``chapter`` (a prefix such as ``"discord"``), then its own findings."""
+    if chapter not in CHAPTERS:
+        raise ValueError(f"unknown chapter prefix {chapter!r}; one of {sorted(CHAPTERS)}")
+    profile = get_profile(profile)
+    recorded = load_all(profile) if recorded is None else recorded
+    rows = []
+    for claim in CLAIMS:
+        if claim.keys[0].split("/", 1)[0] == chapter:
+            row = judge(claim, recorded)
+            rows.append(FindingRow(row.verdict, claim.statement, row.ours, f"{claim.paper}, {claim.source}"))
+    for finding in FINDINGS.get(chapter, ()):
+        verdict = MISSING if any(k not in recorded for k in finding.keys) else finding.rule.judge(recorded)
+        rows.append(FindingRow(verdict, finding.statement, finding.rule.sentence(recorded), ""))
+    return ChapterFindings(chapter, profile, rows)

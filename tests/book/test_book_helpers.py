@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import random
+from pathlib import Path
 
 import matplotlib
 
@@ -71,3 +72,29 @@ def test_embed_animation_is_self_contained():
     assert not plt.fignum_exists(fig.number), "the figure should be closed to avoid a duplicate still"
     with pytest.raises(ValueError, match="anim"):
         book.embed_animation(fig)
+
+
+def test_display_path_hides_the_machines_folders(isolated_cache):
+    assert book.display_path(isolated_cache / "results" / "smoke") == "<motionlab cache>/results/smoke"
+    assert book.display_path(Path.home() / "data" / "HumanML3D") == "~/data/HumanML3D"
+
+
+def test_findings_box_is_filled_in_place_from_the_recorded_numbers(isolated_cache, monkeypatch):
+    from IPython.core.interactiveshell import InteractiveShell
+
+    monkeypatch.delenv(results.RESULTS_ENV, raising=False)
+    published = []
+    shell = InteractiveShell.instance()
+    monkeypatch.setattr(shell.display_pub, "publish", lambda data, metadata=None, **kw: published.append((data, kw)))
+    box = book.findings_box("vq")
+    data, kw = published[-1]
+    assert "Run the chapter to its end" in data["text/html"]
+    results.record("vq", "mpjpe_vq", 40.0, unit="mm", profile="smoke")
+    results.record("vq", "mpjpe_rvq", 30.0, ci=1.0, unit="mm", profile="smoke")
+    found = box.update("smoke")
+    data, kw = published[-1]
+    assert kw.get("update") and kw["transient"]["display_id"] == box.display_id == published[0][1]["transient"][
+        "display_id"]
+    assert "30.0 ± 1.0 mm (residual VQ)" in data["text/html"] and found.rows[0].verdict == results.HOLDS
+    with pytest.raises(ValueError, match="results prefix"):
+        book.findings_box("chapter 2")

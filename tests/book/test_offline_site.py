@@ -65,6 +65,7 @@ def site(tmp_path_factory) -> Path:
     root = tmp_path_factory.mktemp("offline-book")
     (root / "book").mkdir()
     shutil.copy(REPO / "book" / "references.bib", root / "book" / "references.bib")
+    shutil.copytree(REPO / "book" / "_ext", root / "book" / "_ext")  # the site's Sphinx extension (_config.yml)
     (root / "_build").mkdir()
     (root / "_build" / "vendor").symlink_to(VENDOR, target_is_directory=True)  # html_static_path
     nb = nbformat.v4.new_notebook()

@@ -124,9 +124,9 @@ def test_missing_keys_give_a_row_not_a_gap():
     claim = Claim("P", "Table 1", "x is small", "1 vs 2", Less("c/x", "c/y"))
     row = results.judge(claim, {"c/x": r(1.0, key="x")})
     assert row.verdict == MISSING and row.missing == ("c/y",)
-    assert row.ours == "x = 1\ny: —"  # one chapter: keys shown without the prefix
+    assert row.ours == "x 1.00 vs y not yet measured"  # keys without a label are shown by their name
     mixed = results.judge(Claim("P", "T", "s", "v", Less("a/x", "b/y")), {})
-    assert mixed.ours == "a/x: —\nb/y: —"
+    assert mixed.ours == "x not yet measured vs y not yet measured"
 
 
 # ---------------------------------------------------------------------------------------------- registry
@@ -162,7 +162,7 @@ def test_claims_table_with_nothing_recorded_lists_every_claim(results_root):
     assert table.counts()[MISSING] == len(CLAIMS)
     html = table._repr_html_()
     assert html.count("<tr>") == len(CLAIMS) + 1 and "not yet measured" in html
-    assert table.to_markdown().count("\n") == len(CLAIMS) + 1
+    assert sum(line.startswith("| ") for line in table.to_markdown().splitlines()) == len(CLAIMS) + 1
 
 
 def test_claims_table_uses_recorded_numbers(results_root):
@@ -184,7 +184,7 @@ def test_mechanism_rows_show_recorded_numbers_and_never_change_the_verdict(resul
     rec = {"c/a": r(2.0, key="a"), "c/b": r(1.0, key="b"), "c/h0": r(3.74, key="h0"), "c/h4": r(1.22, key="h4")}
     row = results.judge(claim, rec)
     assert row.verdict == FAILS  # the mechanism explains, it does not judge
-    assert row.mechanism == "entropy, s = 0 → 4: h0 = 3.74, h4 = 1.22\nrepeats: rep: —"
+    assert row.mechanism == "entropy, s = 0 → 4: h0 3.74, h4 1.22\nrepeats: not yet measured"
     assert claim.mechanism_keys == ("c/h0", "c/h4", "c/rep")
     assert results.judge(Claim("P", "T", "s", "v", Less("c/a", "c/b")), rec).mechanism == ""
     # The guidance and dynamic-β claims of M2D2M carry their mechanism, on keys of their own chapters.
@@ -194,4 +194,78 @@ def test_mechanism_rows_show_recorded_numbers_and_never_change_the_verdict(resul
     for c in explained.values():
         assert all(k.split("/")[0] == c.keys[0].split("/")[0] for k in c.mechanism_keys)
     table = results.ClaimsTable([row], "smoke")
-    assert "measured mechanism" in table._repr_html_() and "h4 = 1.22" in table.to_markdown()
+    assert "Why, as measured" in table._repr_html_() and "h4 1.22" in table.to_markdown()
+
+
+# ---------------------------------------------------------------------------------------------- reading
+
+
+def test_estimates_read_with_units_and_only_real_intervals():
+    fmt = results.format_estimate
+    assert fmt(0.41234, (0.39912, 0.42556)) == "0.412 ± 0.013"
+    assert fmt(177.2, (175.4, 179.0), "mm") == "177.2 ± 1.8 mm"
+    assert fmt(1.283, (1.283, 1.283)) == "1.28"  # a zero-width interval (a deterministic value) is not shown
+    assert fmt(25.0, (-3.0, 53.0)) == "25 ± 28"
+    assert fmt(1.0, (0.5, 2.0), "s") == "1.0 (95% CI 0.5 to 2.0) s"
+    assert fmt(0.00815) == "0.00815" and fmt(-15.14) == "-15.1" and fmt(12_345.0) == "12,345"
+    assert Result("c", "k", 1.283, (1.283, 1.283), "mm").describe() == "1.28 mm"
+
+
+def test_ours_is_a_phrase_without_raw_keys():
+    rec = {"discord/sjpe_rf": Result("discord", "sjpe_rf", 0.412, (0.399, 0.425)),
+           "discord/sjpe_ff": Result("discord", "sjpe_ff", 0.512)}
+    assert Less("discord/sjpe_rf", "discord/sjpe_ff").sentence(rec) == \
+        "sJPE: 0.412 ± 0.013 (flow decoder) < 0.512 (feed-forward decoder)"
+    # two different values never print alike
+    close = {"discord/sjpe_steps2": Result("discord", "sjpe_steps2", 3.6161),
+             "discord/sjpe_steps16": Result("discord", "sjpe_steps16", 3.6152)}
+    assert Greater("discord/sjpe_steps2", "discord/sjpe_steps16").sentence(close) == \
+        "sJPE: 3.616 (2 steps) > 3.615 (16 steps)"
+    within = {"discord/fid_steps2": Result("discord", "fid_steps2", 0.034),
+              "discord/fid_steps16": Result("discord", "fid_steps16", 0.032)}
+    assert Within("discord/fid_steps2", "discord/fid_steps16", 0.25).sentence(within) == \
+        "FID: 0.0340 (2 steps), 0.0320 (16 steps): 6% apart (the claim allows 25%)"
+
+
+def test_every_key_a_page_reads_has_a_label():
+    """Claims, mechanisms and chapter findings name their keys in words: no raw key reaches a page."""
+    keys = set(results.claim_keys()) | {k for c in CLAIMS for k in c.mechanism_keys}
+    keys |= {k for findings in results.FINDINGS.values() for f in findings for k in f.keys}
+    unlabelled = sorted(keys - set(results.QUANTITIES))
+    assert not unlabelled, f"add these keys to results.QUANTITIES (quantity, condition): {unlabelled}"
+
+
+def test_claims_page_shows_no_raw_key_and_a_summary_per_paper():
+    recorded = {name: Result(*name.split("/", 1), 1.0 + i / 10, (0.9 + i / 10, 1.1 + i / 10))
+                for i, name in enumerate(set(results.claim_keys()) | {k for c in CLAIMS for k in c.mechanism_keys})}
+    table = results.claims_table("smoke", recorded=recorded)
+    html = table._repr_html_()
+    raw = [k for k in recorded if k in html or k.split("/", 1)[1] in html]
+    assert not raw, f"raw result keys on the claims page: {raw}"
+    summary = table.summary()
+    assert [line.split(":")[0] for line in summary] == ["DisCoRD", "M2D2M"]
+    by_paper = table.by_paper()
+    for line, (paper, counts) in zip(summary, by_paper.items(), strict=True):
+        assert line.startswith(paper)
+        assert f"{counts[HOLDS]} of {sum(counts.values())} claims hold" in line
+    assert sum(sum(c.values()) for c in by_paper.values()) == len(CLAIMS)
+    assert html.index("DisCoRD</b>:") < html.index("<table")  # the summary comes before the table
+    assert html.count('class="ml-mechanism"') == sum(bool(c.mechanism) for c in CLAIMS)
+
+
+def test_chapter_findings_judge_the_chapters_claims_and_its_own_findings():
+    rec = {"vq/mpjpe_vq": Result("vq", "mpjpe_vq", 40.0, None, "mm"),
+           "vq/mpjpe_rvq": Result("vq", "mpjpe_rvq", 30.0, (29.0, 31.0), "mm")}
+    found = results.chapter_findings("vq", "smoke", recorded=rec)
+    assert [r.verdict for r in found.rows] == [HOLDS, MISSING, MISSING]
+    assert found.rows[0].ours == "MPJPE: 30.0 ± 1.0 mm (residual VQ) < 40.0 mm (VQ, one codebook)"
+    html = found._repr_html_()
+    assert "What this chapter found" in html and "mpjpe" not in html
+    discord = results.chapter_findings("discord", "smoke", recorded={})
+    assert len(discord.rows) == sum(c.keys[0].startswith("discord/") for c in CLAIMS)
+    assert all(r.source.startswith("DisCoRD") and r.verdict == MISSING for r in discord.rows)
+    with pytest.raises(ValueError, match="chapter prefix"):
+        results.chapter_findings("nope", "smoke", recorded={})
+    at_most = results.AtMost("motion_data/roundtrip_error", 1e-5)
+    ok = {"motion_data/roundtrip_error": Result("motion_data", "roundtrip_error", 2e-7, None, "m")}
+    assert at_most.judge(ok) == HOLDS and "at most 1e-05 m" in at_most.sentence(ok)

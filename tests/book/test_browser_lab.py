@@ -1,0 +1,189 @@
+"""The book as a reader runs it: JupyterLab from this environment, chapter 03 run to the end, its slider moved.
+
+Starts ``jupyter lab`` from the test's own environment on 127.0.0.1 with a random token, in a temporary folder holding
+a copy of chapter 03 (so nothing in the repository is written; ``MOTIONLAB_LAB_NOTEBOOK`` names another notebook),
+opens it in headless Chromium, runs every cell (smoke profile, one torch thread) and waits for the kernel. No cell may
+fail. Then it types 8 into the ``steps`` slider of the chapter's sampling widget, presses Enter and waits for the
+widget's figure to change; the page must never show "Error displaying widget" nor an error in a widget's output (a
+callback that raises). Skips where no browser is installed (see ``conftest.py``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import secrets
+import shutil
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+NOTEBOOK = Path(os.environ.get("MOTIONLAB_LAB_NOTEBOOK", REPO / "notebooks" / "03_rectified_flow.ipynb"))
+SLIDER = "steps"  # the description of the slider the test moves
+RUN_TIMEOUT = 600  # seconds for the whole chapter on a busy 2-core machine (15 s when idle)
+
+pytestmark = pytest.mark.browser
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def venv_bin(name: str) -> str:
+    """An executable of the environment the tests run in (``.venv/bin``), else from PATH."""
+    candidate = Path(sys.executable).parent / name
+    found = str(candidate) if candidate.exists() else shutil.which(name)
+    if found is None:
+        pytest.skip(f"{name} is not installed (it comes with the book extra)")
+    return found
+
+
+@pytest.fixture(scope="module")
+def lab(tmp_path_factory):
+    """A running JupyterLab: yields (url of the copied notebook, log file)."""
+    jupyter = venv_bin("jupyter")
+    root = tmp_path_factory.mktemp("lab-root")
+    shutil.copy(NOTEBOOK, root / NOTEBOOK.name)
+    settings = root.parent / f"{root.name}-settings"
+    # With JupyterLab's default windowing, cells off screen are not in the page: render them all.
+    tracker = settings / "@jupyterlab" / "notebook-extension" / "tracker.jupyterlab-settings"
+    tracker.parent.mkdir(parents=True)
+    tracker.write_text(json.dumps({"windowingMode": "none"}))
+    port, token = free_port(), secrets.token_hex(16)
+    env = os.environ | {
+        "MOTIONLAB_PROFILE": "smoke", "MOTIONLAB_THREADS": os.environ.get("MOTIONLAB_THREADS", "1"),
+        "JUPYTERLAB_SETTINGS_DIR": str(settings), "JUPYTERLAB_WORKSPACES_DIR": str(settings / "workspaces"),
+        "JUPYTER_RUNTIME_DIR": str(settings / "runtime"),
+    }
+    log = root.parent / f"{root.name}-lab.log"
+    cmd = [jupyter, "lab", "--no-browser", "--ServerApp.ip=127.0.0.1", f"--ServerApp.port={port}",
+           f"--IdentityProvider.token={token}", f"--ServerApp.root_dir={root}", "--LabApp.expose_app_in_browser=True",
+           "--ServerApp.port_retries=0", "--LabApp.news_url=", "--LabApp.check_for_updates_class="
+           "jupyterlab.NeverCheckForUpdate"]
+    if os.geteuid() == 0:
+        cmd.append("--allow-root")
+    with open(log, "w") as out:
+        proc = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT, env=env, cwd=root)
+    try:
+        base = f"http://127.0.0.1:{port}"
+        deadline = time.monotonic() + 120
+        while True:
+            try:
+                with urllib.request.urlopen(f"{base}/api/status?token={token}", timeout=5) as answer:
+                    if answer.status == 200:
+                        break
+            except OSError:
+                pass
+            if proc.poll() is not None or time.monotonic() > deadline:
+                pytest.fail(f"JupyterLab did not start:\n{log.read_text()[-3000:]}")
+            time.sleep(0.5)
+        yield f"{base}/lab/tree/{NOTEBOOK.name}?token={token}", log
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+STATE_JS = """
+const nb = window.jupyterapp && window.jupyterapp.shell.currentWidget;
+if (!nb || !nb.content || !nb.sessionContext || !nb.sessionContext.session) return null;
+const kernel = nb.sessionContext.session.kernel;
+const cells = nb.content.widgets.filter(c => c.model.type === 'code');
+const errors = [];
+for (const c of cells) {
+  const outs = c.model.outputs;
+  for (let i = 0; i < outs.length; i++) {
+    const o = outs.get(i).toJSON();
+    if (o.output_type === 'error') errors.push(o.ename + ': ' + o.evalue);
+  }
+}
+return {kernel: kernel ? kernel.status : null, cells: cells.length,
+        run: cells.filter(c => c.model.executionCount !== null).length,
+        busy: cells.filter(c => c.promptNode && c.promptNode.textContent.includes('*')).length,
+        errors: errors};
+"""
+
+# What the reader sees of widgets: broken views, and errors printed into a widget's output area.
+WIDGETS_JS = """
+const text = document.body.innerText;
+const outputs = [...document.querySelectorAll(
+  '.widget-interact .jp-OutputArea-output, .widget-output .jp-OutputArea-output')];
+return {broken: (text.match(/Error displaying widget[^\\n]*/g) || []),
+        errors: outputs.filter(o => o.matches('[data-mime-type="application/vnd.jupyter.stderr"]') ||
+                                    o.querySelector('.jp-RenderedText[data-mime-type="application/vnd.jupyter.stderr"]'))
+                       .map(o => o.innerText.slice(-500))};
+"""
+
+# The interact widget that has a slider described `steps`, and the figure it draws.
+FIND_JS = """
+const label = arguments[0];
+for (const box of document.querySelectorAll('.widget-interact')) {
+  for (const slider of box.querySelectorAll('.widget-slider')) {
+    const desc = slider.querySelector('.widget-label');
+    if (desc && desc.textContent.trim() === label) {
+      const img = box.querySelector('.jp-OutputArea img');
+      return {readout: slider.querySelector('.widget-readout'), image: img ? img.src : null,
+              value: slider.querySelector('.widget-readout').textContent};
+    }
+  }
+}
+return null;
+"""
+
+
+def wait_for(driver, script, ready, timeout, what, *args):
+    deadline = time.monotonic() + timeout
+    value = None
+    while time.monotonic() < deadline:
+        value = driver.execute_script(script, *args)
+        if ready(value):
+            return value
+        time.sleep(1)
+    pytest.fail(f"timed out after {timeout} s waiting for {what}; last state: {value}")
+
+
+def test_chapter_03_runs_and_its_slider_redraws(lab, browser_factory):
+    from selenium.webdriver.common.keys import Keys
+
+    url, log = lab
+    driver = browser_factory(offline=True, bypass="127.0.0.1")
+    driver.get(url)
+    wait_for(driver, STATE_JS, lambda s: s is not None and s["kernel"] == "idle", 180, "the notebook and its kernel")
+
+    start = time.monotonic()
+    driver.execute_script("window.jupyterapp.commands.execute('notebook:run-all-cells');")
+    time.sleep(2)
+    state = wait_for(driver, STATE_JS,
+                     lambda s: s["errors"] or (s["kernel"] == "idle" and s["busy"] == 0 and s["run"] == s["cells"]),
+                     RUN_TIMEOUT, "every cell to run")
+    assert not state["errors"], f"a cell failed: {state['errors']}"
+    print(f"chapter ran in {time.monotonic() - start:.0f} s ({state['cells']} code cells)")
+
+    widgets = driver.execute_script(WIDGETS_JS)
+    assert not widgets["broken"] and not widgets["errors"], widgets
+    found = wait_for(driver, FIND_JS, lambda f: f is not None and f["image"], 60, f"the '{SLIDER}' slider", SLIDER)
+    before = found["image"]
+
+    readout = found["readout"]
+    driver.execute_script("arguments[0].scrollIntoView({block: 'center'});", readout)
+    readout.click()
+    readout.send_keys(Keys.CONTROL, "a")
+    readout.send_keys("8", Keys.ENTER)
+    after = wait_for(driver, FIND_JS, lambda f: f is not None and f["image"] and f["image"] != before
+                     or bool(driver.execute_script(WIDGETS_JS)["errors"]), 120, "the figure to change", SLIDER)
+    widgets = driver.execute_script(WIDGETS_JS)
+    assert not widgets["broken"], f"a widget view failed: {widgets['broken']}"
+    assert not widgets["errors"], f"moving the slider raised in the widget's callback:\n{widgets['errors']}"
+    assert after["value"].strip() == "8", after["value"]
+    assert after["image"] != before

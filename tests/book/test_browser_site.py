@@ -1,0 +1,150 @@
+"""The built site in a real browser: every page as a reader opens it from disk, with no network.
+
+Reads the site ``make book`` rendered (``_build/html``; ``MOTIONLAB_SITE`` points elsewhere) and opens every page
+of the book in headless Chromium at 1300×1000 from ``file://``, every http(s) request sent to a dead proxy. Each page
+must log no console error (a script error, a missing file), send no request off the machine, typeset all its math
+with MathJax and render every saved widget view; its text must carry no absolute path of this machine and no Python
+warning. Skips where no site was built (``make book PROFILE=smoke`` builds one) or no browser is installed (see
+``conftest.py``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import time
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+SITE = Path(os.environ.get("MOTIONLAB_SITE", REPO / "_build" / "html")).resolve()
+LOCAL_SCHEMES = ("file:", "data:", "blob:", "about:", "chrome:", "chrome-error:", "devtools:")
+
+pytestmark = pytest.mark.browser
+
+
+def book_pages(site: Path) -> list[Path]:
+    """The pages a reader reaches: every HTML file of the site but Sphinx's own assets and sources."""
+    skip = {"_static", "_sources", "_images", "_downloads"}
+    return sorted(p for p in site.rglob("*.html") if not skip & set(p.relative_to(site).parts))
+
+
+@pytest.fixture(scope="module")
+def site() -> Path:
+    if not (SITE / "index.html").is_file():
+        pytest.skip(f"no built site at {SITE}: run `make book PROFILE=smoke` first")
+    return SITE
+
+
+@pytest.fixture(scope="module")
+def browser(browser_factory):
+    return browser_factory(offline=True)
+
+
+# Runs in the page: waits for MathJax and the widget manager to finish, then reports what a reader would see.
+SETTLE_JS = """
+const done = arguments[arguments.length - 1];
+const start = Date.now();
+function views() {
+  const scripts = [...document.querySelectorAll('script[type="application/vnd.jupyter.widget-view+json"]')];
+  return scripts.map(s => {
+    // the html-manager draws each view into an element it inserts just before the view's script
+    const host = s.previousElementSibling;
+    const drawn = host && host.classList.contains('widget-subarea') && host.querySelector('.jupyter-widgets');
+    return {model: JSON.parse(s.textContent).model_id, drawn: !!drawn,
+            error: !!(host && /Error displaying widget/.test(host.textContent))};
+  });
+}
+function math() {
+  const nodes = [...document.querySelectorAll('.math')];
+  return {total: nodes.length, typeset: nodes.filter(n => n.querySelector('mjx-container') ||
+                                                    n.tagName === 'MJX-CONTAINER').length};
+}
+function poll() {
+  const v = views(), m = math();
+  const mathReady = !window.MathJax || !MathJax.startup || MathJax.startup.document?.state?.() >= 200 ||
+                    m.typeset === m.total;
+  const settled = v.every(x => x.drawn || x.error) && m.typeset === m.total && document.readyState === 'complete';
+  if ((settled && mathReady) || Date.now() - start > 30000) {
+    done({views: v, math: m, text: document.body.innerText, height: document.documentElement.scrollHeight,
+          resources: performance.getEntriesByType('resource').map(r => r.name)});
+  } else {
+    setTimeout(poll, 200);
+  }
+}
+poll();
+"""
+
+
+def network_requests(driver) -> list[str]:
+    """Every URL the page asked for since the last call (from the DevTools performance log)."""
+    urls = []
+    for entry in driver.get_log("performance"):
+        message = json.loads(entry["message"])["message"]
+        if message.get("method") == "Network.requestWillBeSent":
+            urls.append(message["params"]["request"]["url"])
+    return urls
+
+
+def open_page(driver, page: Path) -> dict:
+    driver.get_log("browser")  # drop what earlier pages logged
+    network_requests(driver)
+    driver.get(page.as_uri())
+    report = driver.execute_async_script(SETTLE_JS)
+    time.sleep(0.5)  # late font and image loads report their failures asynchronously
+    report["console"] = [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]
+    report["requests"] = network_requests(driver) + report.pop("resources")
+    return report
+
+
+def machine_paths() -> list[str]:
+    """Absolute paths of this machine that must never appear in a rendered output."""
+    from motionlab.paths import cache_dir
+
+    paths = {str(REPO), str(Path.home()), str(cache_dir())}
+    return sorted(p for p in paths if len(p) > 1)
+
+
+@pytest.fixture(scope="module")
+def reports(site, browser) -> dict[str, dict]:
+    pages = book_pages(site)
+    assert pages, f"no pages found under {site}"
+    return {str(p.relative_to(site)): open_page(browser, p) for p in pages}
+
+
+def test_every_page_logs_no_console_error(reports):
+    errors = {page: [e["message"] for e in r["console"]] for page, r in reports.items() if r["console"]}
+    assert not errors, "console errors:\n" + "\n".join(f"{p}: {m}" for p, ms in errors.items() for m in ms)
+
+
+def test_no_request_leaves_the_machine(reports):
+    remote = {page: sorted({u for u in r["requests"] if not u.startswith(LOCAL_SCHEMES)})
+              for page, r in reports.items()}
+    remote = {page: urls for page, urls in remote.items() if urls}
+    assert not remote, f"pages that reach the network: {remote}"
+
+
+def test_every_saved_widget_view_renders(reports):
+    chapters = {page: r["views"] for page, r in reports.items() if page.startswith("notebooks/")}
+    assert any(chapters.values()), "no chapter carries a saved widget view: was the widget state stored?"
+    broken = {page: [v["model"] for v in views if not v["drawn"] or v["error"]] for page, views in chapters.items()}
+    broken = {page: models for page, models in broken.items() if models}
+    assert not broken, f"widget views that did not render: {broken}"
+
+
+def test_mathjax_typesets_every_formula(reports):
+    assert sum(r["math"]["total"] for r in reports.values()) > 0, "no math found in the book"
+    raw = {page: r["math"] for page, r in reports.items() if r["math"]["typeset"] < r["math"]["total"]}
+    assert not raw, f"formulas left as raw TeX: {raw}"
+
+
+def test_outputs_carry_no_machine_path_and_no_warning(reports):
+    paths = machine_paths()
+    leaks = {page: [p for p in paths if p in r["text"]] for page, r in reports.items()}
+    leaks = {page: found for page, found in leaks.items() if found}
+    assert not leaks, f"absolute paths of this machine in the rendered pages: {leaks}"
+    warning = re.compile(r"\b\w*Warning: ")
+    warned = {page: warning.findall(r["text"]) for page, r in reports.items() if warning.search(r["text"])}
+    assert not warned, f"Python warnings in the rendered outputs: {warned}"
