@@ -39,6 +39,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from motionlab.metrics.protocol import Estimate, summarize_runs
+from motionlab.precision import network_precision
 from motionlab.profiles import get_profile
 
 TASKS = ("reconstruction", "t2m", "multi")
@@ -84,13 +85,14 @@ class EvaluationTable:
     rows: dict[str, dict[str, Estimate]]
     deterministic: tuple[str, ...] = ()
     notes: list[str] = field(default_factory=list)
+    precision: str = "fp32"  # what the models were trained and sampled in (motionlab.precision); metrics are fp32
 
     def header(self) -> str:
-        """One line: task, profile, dataset key, what was evaluated, repeats and seed."""
+        """One line: task, profile, precision, dataset key, what was evaluated, repeats and seed."""
         counts = ", ".join(f"{n} {what}" for what, n in self.counts.items())
         repeats = f"{self.repeats} repeat{'s' if self.repeats != 1 else ''}"
-        return (f"evaluate {self.task}: profile {self.profile}, data {self.data}, split {self.split}, {counts}, "
-                f"{repeats}, seed {self.seed}")  # fmt: skip
+        return (f"evaluate {self.task}: profile {self.profile}, {self.precision}, data {self.data}, split "
+                f"{self.split}, {counts}, {repeats}, seed {self.seed}")  # fmt: skip
 
     def to_markdown(self, digits: int = 3) -> str:
         """A Markdown table, ``mean ± half-width`` per cell (the mean alone in deterministic or one-run rows)."""
@@ -108,7 +110,8 @@ class EvaluationTable:
         """Plain JSON types; a non-finite number becomes ``null`` (JSON has no NaN)."""
         rows = {name: {m: {"mean": _finite(e.mean), "ci95": _finite(e.half_width), "n": e.n} for m, e in row.items()}
                 for name, row in self.rows.items()}  # fmt: skip
-        return {"task": self.task, "profile": self.profile, "data": self.data, "split": self.split,
+        return {"task": self.task, "profile": self.profile, "precision": self.precision, "data": self.data,
+                "split": self.split,
                 "repeats": self.repeats, "seed": self.seed, "config": self.config, "counts": self.counts,
                 "metrics": list(self.metrics), "deterministic": list(self.deterministic), "notes": self.notes,
                 "rows": rows}  # fmt: skip
@@ -452,9 +455,11 @@ def _sampling(cfg) -> dict[str, Any]:
     return {k: v for k, v in options.items() if v is not None}
 
 
-def _table(task: str, dataset, profile: str, cfg, counts, metrics, rows, **kw) -> EvaluationTable:
+def _table(task: str, dataset, profile: str, cfg, counts, metrics, rows, device=None, **kw) -> EvaluationTable:
+    from .train.device import get_device
+
     return EvaluationTable(task, profile, dataset.key, cfg.split, cfg.repeats, cfg.seed, asdict(cfg), counts,
-                           tuple(metrics), rows, **kw)  # fmt: skip
+                           tuple(metrics), rows, precision=network_precision(get_device(device)), **kw)  # fmt: skip
 
 
 # ----------------------------------------------------------------------------------------------- the tasks
@@ -527,7 +532,7 @@ def evaluate_reconstruction(dataset, config: ReconstructionConfig | None = None,
             notes.append("DisCoRD at temperature 0 decodes every seed to the same motion: one run, no interval.")
             deterministic.append(flow_row)
     return _table("reconstruction", dataset, profile, cfg, {"clips": len(clips)}, RECONSTRUCTION_METRICS, rows,
-                  deterministic=tuple(deterministic), notes=[" ".join(notes)])  # fmt: skip
+                  device, deterministic=tuple(deterministic), notes=[" ".join(notes)])  # fmt: skip
 
 
 def evaluate_t2m(dataset, config: TextToMotionConfig | None = None, profile: str | None = None, *,
@@ -577,7 +582,8 @@ def evaluate_t2m(dataset, config: TextToMotionConfig | None = None, profile: str
                 bar.update(mm_motions)
     rows = {"Ground Truth": summarize_runs(truth), f"Discrete diffusion + {decoder_name}": summarize_runs(runs)}
     counts = {"clips": len(clips), **({"multimodality texts": len(mm_clips)} if cfg.multimodality else {})}
-    return _table("t2m", dataset, profile, cfg, counts, T2M_METRICS if cfg.multimodality else T2M_METRICS[:-1], rows)
+    return _table("t2m", dataset, profile, cfg, counts, T2M_METRICS if cfg.multimodality else T2M_METRICS[:-1], rows,
+                  device)
 
 
 def _method_rows(methods: Sequence[str], T_s: int) -> dict[str, dict[str, Any]]:
@@ -652,7 +658,8 @@ def evaluate_multi(dataset, config: MultiMotionConfig | None = None, profile: st
             for name, row in summary.items()}  # fmt: skip
     counts = {"instances": len(instances), "actions each": cfg.actions, "single-action clips": len(pool)}
     notes = [f"Decoder: {decoder_name}. Jerk is Eq. 10 at the transitions: closer to Ground Truth (Single) is better."]
-    return _table("multi", dataset, profile, cfg, counts, MULTI_METRICS, rows, deterministic=(concat,), notes=notes)
+    return _table("multi", dataset, profile, cfg, counts, MULTI_METRICS, rows, device, deterministic=(concat,),
+                  notes=notes)  # fmt: skip
 
 
 EVALUATORS = {"reconstruction": evaluate_reconstruction, "t2m": evaluate_t2m, "multi": evaluate_multi}

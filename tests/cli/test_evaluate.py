@@ -61,7 +61,7 @@ def test_reconstruction_vq_json_equals_the_library_scores(data, tmp_path, capsys
     assert evaluate("reconstruction", data, "--decoder", "vq", "--limit", "12", "--json", str(out)) == 0
     stdout = capsys.readouterr().out.splitlines()
     dataset = load_dataset(data)
-    assert stdout[0] == (f"evaluate reconstruction: profile smoke, data {dataset.key}, split test, 12 clips, "
+    assert stdout[0] == (f"evaluate reconstruction: profile smoke, fp32, data {dataset.key}, split test, 12 clips, "
                          "2 repeats, seed 0")  # fmt: skip
     assert "| VQ-VAE decoder (deterministic) |" in "\n".join(stdout)
 

@@ -200,3 +200,21 @@ def test_fp32_is_bit_identical_to_the_code_before_precision(tmp_path):
     now, then = _probe(data, tmp_path / "home-now", None), _probe(data, tmp_path / "home-then", before)
     assert then.pop("library").startswith(str(before)) and not now.pop("library").startswith(str(before))
     assert now == then
+
+
+def test_cli_precision_is_a_global_option_handed_to_the_run(tmp_path, capsys):
+    from motionlab.cli import main
+
+    assert main(["--precision", "bf16", "data", "check", str(tmp_path)]) == 1  # an empty folder: problems listed
+    assert os.environ["MOTIONLAB_PRECISION"] == "bf16"  # what worker processes and chapter kernels inherit
+    with pytest.raises(SystemExit):
+        main(["--precision", "half", "data", "check", str(tmp_path)])
+    assert "invalid choice: 'half'" in capsys.readouterr().err
+
+
+def test_the_plan_line_says_which_precision_trains(monkeypatch):
+    from motionlab.train.plan import Job, plan_line
+
+    monkeypatch.setenv("MOTIONLAB_PRECISION", "bf16")
+    line = plan_line([Job("m", lambda: None, (), 60.0, lambda: False)])
+    assert line.startswith("to train first (1 models in bf16, asked for;")

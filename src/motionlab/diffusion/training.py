@@ -304,6 +304,37 @@ def optimisation(config: DiffusionTrainingConfig, n_clips: int) -> TrainConfig:
                        log_every=config.log_every, ckpt_every=max(0, steps // 4))  # fmt: skip
 
 
+def text_to_motion_trainer(
+    networks: TextToMotionNetworks,
+    sequences: Sequence[Tensor],
+    captions: Sequence[Sequence[str]],
+    transitions: Transitions,
+    config: DiffusionTrainingConfig,
+    *,
+    workdir: str | os.PathLike | None = None,
+    device: str | None = None,
+    progress: bool = True,
+    precision: str | None = None,
+) -> Trainer:
+    """The :class:`~motionlab.train.Trainer` of ``networks`` on token ``sequences`` and their ``captions``, with
+    ``transitions`` on its device (not run yet: :func:`train_text_to_motion` fits it; ``bench_train.py`` times it)."""
+    if transitions.num_codes != config.transformer.num_codes or transitions.T != config.transformer.timesteps:
+        raise ValueError(
+            f"transitions (K={transitions.num_codes}, T={transitions.T}) do not match the "
+            f"config (K={config.transformer.num_codes}, T={config.transformer.timesteps})"
+        )
+    K = config.transformer.num_codes
+    if any(int(s.min()) < 0 or int(s.max()) >= K for s in sequences if s.numel()):
+        raise ValueError(f"token sequences must hold code ids in [0, {K})")
+    batches = TokenBatches(sequences, captions, config.transformer.batch_size, config.max_tokens)
+    train = optimisation(config, len(sequences))
+    trainer = Trainer(networks, diffusion_loss_fn(transitions, batches.texts, config), batches, train,
+                      workdir=workdir, device=device, desc="text-to-motion", progress=progress,
+                      precision=precision)  # fmt: skip
+    transitions.to(trainer.device)
+    return trainer
+
+
 def train_text_to_motion(
     networks: TextToMotionNetworks,
     sequences: Sequence[Tensor],
@@ -320,19 +351,8 @@ def train_text_to_motion(
     Returns the logged history (``loss``, ``vb``, ``aux`` averaged over ``log_every`` steps). Resumes from
     ``workdir``'s latest checkpoint when there is one.
     """
-    if transitions.num_codes != config.transformer.num_codes or transitions.T != config.transformer.timesteps:
-        raise ValueError(
-            f"transitions (K={transitions.num_codes}, T={transitions.T}) do not match the "
-            f"config (K={config.transformer.num_codes}, T={config.transformer.timesteps})"
-        )
-    K = config.transformer.num_codes
-    if any(int(s.min()) < 0 or int(s.max()) >= K for s in sequences if s.numel()):
-        raise ValueError(f"token sequences must hold code ids in [0, {K})")
-    batches = TokenBatches(sequences, captions, config.transformer.batch_size, config.max_tokens)
-    train = optimisation(config, len(sequences))
-    trainer = Trainer(networks, diffusion_loss_fn(transitions, batches.texts, config), batches, train,
-                      workdir=workdir, device=device, desc="text-to-motion", progress=progress)  # fmt: skip
-    transitions.to(trainer.device)
+    trainer = text_to_motion_trainer(networks, sequences, captions, transitions, config, workdir=workdir,
+                                     device=device, progress=progress)  # fmt: skip
     history = trainer.fit()
     networks.eval()
     return history

@@ -113,6 +113,33 @@ def noise_floor(config: DisCoRDConfig) -> float:
 # ----------------------------------------------------------------------------- training
 
 
+def discord_trainer(
+    model: DisCoRDDecoder,
+    tokenizer: Any,
+    train_clips: Clips,
+    val_clips: Clips | None = None,
+    *,
+    workdir: str | Path | None = None,
+    device: str | None = None,
+    progress: bool = True,
+    precision: str | None = None,
+) -> Trainer:
+    """The :class:`~motionlab.train.Trainer` of ``model`` on windows of normalised ``train_clips`` and their frozen
+    tokens (not run yet: :func:`train_discord` fits it; ``benchmarks/bench_train.py`` times its steps)."""
+    cfg: DisCoRDConfig = model.config
+    model.attach(tokenizer)  # checks widths, stride and feature size against the tokenizer
+    tokenizer.eval()
+    windows = WindowDataset(train_clips, cfg.window)
+    if windows.feature_dim != cfg.feature_dim:
+        raise ValueError(f"train_clips have {windows.feature_dim} features, the config expects {cfg.feature_dim}")
+    val_fn = flow_validation(tokenizer, val_clips, cfg.window, seed=cfg.seed) if val_clips is not None else None
+    train = cfg.train_config(seed=cfg.seed, log_every=max(1, cfg.train_steps // 100),
+                             val_every=max(1, cfg.train_steps // 10) if val_fn else 0)  # fmt: skip
+    return Trainer(model, discord_loss_fn, token_window_batches(windows, tokenizer, cfg.batch_size), train,
+                   val_fn=val_fn, workdir=workdir, device=device, desc="DisCoRD", progress=progress,
+                   precision=precision)  # fmt: skip
+
+
 def train_discord(
     model: DisCoRDDecoder,
     tokenizer: Any,
@@ -129,17 +156,8 @@ def train_discord(
     ``lr``, ``grad_norm``, and ``val_loss`` on ``val_clips`` windows if given), wall-clock and CPU time
     (summed over this process's threads) of the run.
     """
-    cfg: DisCoRDConfig = model.config
-    model.attach(tokenizer)  # checks widths, stride and feature size against the tokenizer
-    tokenizer.eval()
-    windows = WindowDataset(train_clips, cfg.window)
-    if windows.feature_dim != cfg.feature_dim:
-        raise ValueError(f"train_clips have {windows.feature_dim} features, the config expects {cfg.feature_dim}")
-    val_fn = flow_validation(tokenizer, val_clips, cfg.window, seed=cfg.seed) if val_clips is not None else None
-    train = cfg.train_config(seed=cfg.seed, log_every=max(1, cfg.train_steps // 100),
-                             val_every=max(1, cfg.train_steps // 10) if val_fn else 0)  # fmt: skip
-    trainer = Trainer(model, discord_loss_fn, token_window_batches(windows, tokenizer, cfg.batch_size), train,
-                      val_fn=val_fn, workdir=workdir, device=device, desc="DisCoRD", progress=progress)  # fmt: skip
+    trainer = discord_trainer(model, tokenizer, train_clips, val_clips, workdir=workdir, device=device,
+                              progress=progress)  # fmt: skip
     wall, cpu = time.perf_counter(), time.process_time()
     history = trainer.fit()
     seconds, cpu_seconds = time.perf_counter() - wall, time.process_time() - cpu
@@ -207,6 +225,7 @@ def discord_training_log(
 __all__ = [
     "MODEL_NAME",
     "code_vectors",
+    "discord_trainer",
     "discord_training_log",
     "flow_validation",
     "loss_at_time",

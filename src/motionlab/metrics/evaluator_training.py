@@ -340,8 +340,11 @@ def _validation_fn(dataset, vocabulary: CaptionVocabulary, split: str = "val"):
     return val_fn
 
 
-def _train_fn(dataset, vocabulary: CaptionVocabulary, config: EvaluatorTrainingConfig, progress: bool, device=None):
-    """``train_fn(model, workdir)`` for :func:`motionlab.train.train_or_load`; the data is read only when called."""
+def evaluator_trainer(model: EvaluatorNetworks, dataset, vocabulary: CaptionVocabulary,
+                      config: EvaluatorTrainingConfig, *, workdir: Path | None = None, device=None,
+                      progress: bool = False, precision: str | None = None) -> Trainer:  # fmt: skip
+    """The :class:`~motionlab.train.Trainer` of the evaluator's networks on ``dataset``'s train split (not run yet:
+    :func:`train_evaluator` and the cache fit it; ``benchmarks/bench_train.py`` times its steps)."""
 
     def loss_fn(model: EvaluatorNetworks, batch: dict, generator: torch.Generator) -> dict[str, torch.Tensor]:
         text = model.encode_text(batch["ids"], batch["pos"], batch["text_lengths"])  # (B, d)
@@ -351,13 +354,20 @@ def _train_fn(dataset, vocabulary: CaptionVocabulary, config: EvaluatorTrainingC
         losses = contrastive_loss(text, motion, margin=config.margin, shift=shift)
         return {"loss": losses.total, "positive": losses.positive, "negative": losses.negative}
 
+    batches = EvaluatorBatches(dataset.split("train"), dataset.normalizer, vocabulary, config)
+    train = TrainConfig(steps=config.steps, lr=config.lr, betas=(0.9, 0.999), schedule="cosine",
+                        grad_clip=config.grad_clip, seed=config.seed, log_every=max(1, config.steps // 50),
+                        val_every=config.val_every)  # fmt: skip
+    return Trainer(model, loss_fn, batches, train, val_fn=_validation_fn(dataset, vocabulary), workdir=workdir,
+                   device=device, desc="evaluator", progress=progress, precision=precision)  # fmt: skip
+
+
+def _train_fn(dataset, vocabulary: CaptionVocabulary, config: EvaluatorTrainingConfig, progress: bool, device=None):
+    """``train_fn(model, workdir)`` for :func:`motionlab.train.train_or_load`; the data is read only when called."""
+
     def train_fn(model: nn.Module, workdir: Path | None) -> dict:
-        batches = EvaluatorBatches(dataset.split("train"), dataset.normalizer, vocabulary, config)
-        train = TrainConfig(steps=config.steps, lr=config.lr, betas=(0.9, 0.999), schedule="cosine",
-                            grad_clip=config.grad_clip, seed=config.seed, log_every=max(1, config.steps // 50),
-                            val_every=config.val_every)  # fmt: skip
-        trainer = Trainer(model, loss_fn, batches, train, val_fn=_validation_fn(dataset, vocabulary),
-                          workdir=workdir, device=device, desc="evaluator", progress=progress)  # fmt: skip
+        trainer = evaluator_trainer(model, dataset, vocabulary, config, workdir=workdir, device=device,
+                                    progress=progress)  # fmt: skip
         history = trainer.fit()
         return {"history": history, "final_val": trainer.validate()}
 

@@ -40,6 +40,27 @@ def window_validation(model: ConvTokenizer, clips: Clips, n_windows: int = 256, 
     return val_fn
 
 
+def tokenizer_trainer(
+    model: ConvTokenizer,
+    train_clips: Clips,
+    val_clips: Clips | None = None,
+    *,
+    workdir: str | Path | None = None,
+    device: str | None = None,
+    progress: bool = True,
+    precision: str | None = None,
+) -> Trainer:
+    """The :class:`~motionlab.train.Trainer` of ``model`` on random windows of normalised ``train_clips`` (not run
+    yet: :func:`train_tokenizer` fits it; ``benchmarks/bench_train.py`` times its steps). ``precision``: the run's."""
+    c = model.config
+    data = WindowDataset(train_clips, c.window)
+    if data.feature_dim != c.feature_dim:
+        raise ValueError(f"train_clips have {data.feature_dim} features, the config expects {c.feature_dim}")
+    val_fn = window_validation(model, val_clips) if val_clips is not None else None
+    return Trainer(model, tokenizer_loss_fn, data.batches(c.batch_size), c.train, val_fn=val_fn, workdir=workdir,
+                   device=device, desc=type(model).__name__, progress=progress, precision=precision)  # fmt: skip
+
+
 def train_tokenizer(
     model: ConvTokenizer,
     train_clips: Clips,
@@ -50,15 +71,9 @@ def train_tokenizer(
     progress: bool = True,
 ) -> list[dict[str, float]]:
     """Train ``model`` on random windows of normalised ``train_clips``; returns the logged history."""
-    c = model.config
-    data = WindowDataset(train_clips, c.window)
-    if data.feature_dim != c.feature_dim:
-        raise ValueError(f"train_clips have {data.feature_dim} features, the config expects {c.feature_dim}")
-    val_fn = window_validation(model, val_clips) if val_clips is not None else None
-    trainer = Trainer(model, tokenizer_loss_fn, data.batches(c.batch_size), c.train, val_fn=val_fn,
-                      workdir=workdir, device=device, desc=type(model).__name__, progress=progress)  # fmt: skip
+    trainer = tokenizer_trainer(model, train_clips, val_clips, workdir=workdir, device=device, progress=progress)
     history = trainer.fit()
-    if val_fn is not None and not (history and any(k.startswith("val_") for k in history[-1])):
+    if trainer.val_fn is not None and not (history and any(k.startswith("val_") for k in history[-1])):
         history.append({"step": trainer.step, **trainer.validate()})
     model.eval()
     return history

@@ -1,0 +1,252 @@
+"""Training steps and sampling throughput of every laptop model, fp32 against bf16 (the matrix units).
+
+Not a test: prints a table and writes JSON. Each laptop model is built at its laptop size (random initial weights:
+the cost of a step does not depend on them) on the same dataset, once per precision, and trained through its own
+:class:`~motionlab.train.Trainer` (the one the library fits: ``tokenizer_trainer``, ``discord_trainer``,
+``text_to_motion_trainer``, ``evaluator_trainer``) — same loss, batches, optimizer and precision handling:
+
+- ``vq``, ``rvq``: the tokenizers (batch 32 windows of 64 frames);
+- ``discord``: the flow decoder on RVQ codes (batch 32, 64 frames);
+- ``diffusion``: the text encoder + denoising transformer (batch 64 captioned token sequences);
+- ``evaluator``: the text and motion encoders (contrastive batches);
+
+and the samplers, items per second, precision switched through ``$MOTIONLAB_PRECISION`` as a run would:
+
+- ``discord-decode``: DisCoRD decoding of 32 clips of 49 tokens (196 frames), the laptop ODE (8 midpoint steps);
+- ``diffusion-sample``: text-to-motion tokens for 32 captions at dataset lengths, all T steps, guidance 4;
+- ``tps``: Two-Phase Sampling of 8 four-action instances.
+
+Timing follows ``benchmarks/_timing.py``: one thread, the two precisions interleaved round by round in one process,
+``--repeats`` rounds after a warm-up, median and min–max of wall and CPU time, and the per-round fp32/bf16 ratio.
+A training round is ``--steps`` optimizer steps. ``--json OUT`` writes one record per model and precision:
+``{"model", "precision", "steps_per_s", "median_s", "min_s", "max_s", ...}`` (samplers add ``items_per_s``).
+
+    .venv/bin/python benchmarks/bench_train.py --json _build/benchmarks/train.json
+    .venv/bin/python benchmarks/bench_train.py --models discord diffusion --repeats 3
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import torch
+from _timing import add_timing_arguments, apply_threads, interleaved, ratio, ratio_text, spread
+
+from motionlab.data import load_dataset
+from motionlab.precision import explain_precision, read_cpu_info
+
+PRECISIONS = ("fp32", "bf16")
+TRAINED = ("vq", "rvq", "discord", "diffusion", "evaluator")
+SAMPLERS = ("discord-decode", "diffusion-sample", "tps")
+REPO = Path(__file__).resolve().parents[1]
+
+
+# -- training: one Trainer per model and precision ------------------------------------------------------------------
+def tokenizer_trainer(kind: str, dataset, precision: str):
+    from motionlab.tokenizers import build_tokenizer, rvq_config, vq_config
+    from motionlab.tokenizers.training import tokenizer_trainer
+
+    model = build_tokenizer((vq_config if kind == "vq" else rvq_config)("laptop"))
+    return tokenizer_trainer(model, dataset.normalized("train"), progress=False, precision=precision)
+
+
+def discord_trainer(dataset, precision: str):
+    from motionlab.flow import DisCoRDDecoder, discord_config
+    from motionlab.flow.training import discord_trainer
+    from motionlab.tokenizers import build_tokenizer, rvq_config
+
+    tokenizer = build_tokenizer(rvq_config("laptop")).eval()
+    model = DisCoRDDecoder(discord_config("laptop", tokenizer=tokenizer))
+    return discord_trainer(model, tokenizer, dataset.normalized("train"), progress=False, precision=precision)
+
+
+def diffusion_parts(dataset):
+    """The laptop text-to-motion networks' inputs: VQ tokens of the train clips, captions, transitions, config."""
+    from motionlab.diffusion.training import (
+        build_vocabulary,
+        diffusion_training_config,
+        make_transitions,
+        tokenize_clips,
+    )
+    from motionlab.tokenizers import build_tokenizer, vq_config
+
+    tokenizer = build_tokenizer(vq_config("laptop")).eval()
+    config = diffusion_training_config("laptop", num_codes=tokenizer.codebook_size)
+    captions = [[c.text for c in clip.captions] for clip in dataset.split("train")]
+    sequences = tokenize_clips(tokenizer, dataset.normalized("train"))
+    transitions = make_transitions(config.transformer, tokenizer.codebook().cpu())
+    return tokenizer, config, captions, sequences, transitions, build_vocabulary(captions, config)
+
+
+def diffusion_trainer(parts, precision: str):
+    from motionlab.diffusion.training import TextToMotionNetworks, text_to_motion_trainer
+
+    _, config, captions, sequences, transitions, vocabulary = parts
+    networks = TextToMotionNetworks(config, vocabulary)
+    return text_to_motion_trainer(networks, sequences, captions, transitions, config, progress=False,
+                                  precision=precision)  # fmt: skip
+
+
+def evaluator_trainer(dataset, precision: str):
+    from motionlab.metrics.evaluator_training import (
+        EvaluatorNetworks,
+        build_vocabulary,
+        evaluator_config,
+        evaluator_trainer,
+    )
+
+    config = evaluator_config("laptop")
+    vocabulary = build_vocabulary(dataset, config)
+    model = EvaluatorNetworks(config.evaluator, len(vocabulary), torch.Generator().manual_seed(config.seed))
+    return evaluator_trainer(model, dataset, vocabulary, config, precision=precision)
+
+
+def training_rounds(name: str, dataset, parts, steps: int) -> dict[str, Callable[[], None]]:
+    """``{precision: one round of `steps` training steps}`` for model ``name``."""
+
+    def build(precision: str):
+        if name in ("vq", "rvq"):
+            return tokenizer_trainer(name, dataset, precision)
+        if name == "discord":
+            return discord_trainer(dataset, precision)
+        if name == "diffusion":
+            return diffusion_trainer(parts, precision)
+        return evaluator_trainer(dataset, precision)
+
+    def round_of(trainer) -> Callable[[], None]:
+        def run() -> None:
+            for _ in range(steps):
+                trainer.train_step()
+
+        return run
+
+    return {p: round_of(build(p)) for p in PRECISIONS}
+
+
+# -- sampling: the same networks, the precision chosen per call through the run's setting ------------------------
+def with_precision(precision: str, fn: Callable[[], object]) -> Callable[[], None]:
+    def run() -> None:
+        os.environ["MOTIONLAB_PRECISION"] = precision
+        fn()
+
+    return run
+
+
+def sampler_rounds(name: str, dataset, parts) -> tuple[dict[str, Callable[[], None]], int]:
+    """``({precision: one sampling call}, items per call)`` for sampler ``name``."""
+    if name == "discord-decode":
+        from motionlab.flow import DisCoRDDecoder, discord_config
+        from motionlab.tokenizers import build_tokenizer, rvq_config
+
+        tokenizer = build_tokenizer(rvq_config("laptop")).eval()
+        decoder = DisCoRDDecoder(discord_config("laptop", tokenizer=tokenizer)).attach(tokenizer).eval()
+        ids = torch.randint(0, tokenizer.codebook_size, (32, 49, tokenizer.num_layers),
+                            generator=torch.Generator().manual_seed(0))  # fmt: skip
+        call, items = (lambda: decoder.decode(ids, seed=0)), 32
+    else:
+        from motionlab.diffusion.pipeline import TextToMotion
+        from motionlab.diffusion.training import TextToMotionNetworks
+
+        tokenizer, config, captions, _, transitions, vocabulary = parts
+        networks = TextToMotionNetworks(config, vocabulary).eval()
+        pipe = TextToMotion(tokenizer, networks.text_encoder, networks.denoiser, transitions, dataset.normalizer,
+                            config.transformer)  # fmt: skip
+        clips = dataset.split("test")
+        if name == "diffusion-sample":
+            texts = [clip.captions[0].text for clip in clips[:32]]
+            lengths = [clip.length // 4 * 4 for clip in clips[:32]]
+            call, items = (lambda: pipe.sample_tokens(texts, lengths, generator=torch.Generator().manual_seed(0))), 32
+        else:
+            from motionlab.multimotion import MultiMotionGenerator
+
+            multi = MultiMotionGenerator.from_pipeline(pipe)
+            instances = [[clips[(4 * i + k) % len(clips)] for k in range(4)] for i in range(8)]
+            texts = [[clip.captions[0].text for clip in group] for group in instances]
+            lengths = [[max(40, clip.length // 4 * 4) for clip in group] for group in instances]
+            call, items = (lambda: [multi.generate(t, n, method="tps", seed=0) for t, n in zip(texts, lengths)]), 8
+    return {p: with_precision(p, call) for p in PRECISIONS}, items
+
+
+def where_time_goes(run: Callable[[], None], top: int) -> list[dict[str, float]]:
+    """The ``top`` operators of one round by self CPU time, as shares of the round (torch's profiler)."""
+    from torch.profiler import profile
+
+    with profile() as prof:
+        run()
+    events = sorted(prof.key_averages(), key=lambda e: e.self_cpu_time_total, reverse=True)
+    total = sum(e.self_cpu_time_total for e in events) or 1.0
+    return [{"op": e.key, "share": round(e.self_cpu_time_total / total, 3), "calls": e.count} for e in events[:top]]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--models", nargs="+", default=[*TRAINED, *SAMPLERS], choices=[*TRAINED, *SAMPLERS])
+    parser.add_argument("--steps", type=int, default=5, help="training steps per timed round (default 5)")
+    parser.add_argument("--data", default=None, help="dataset folder (default: the embedded dataset, smoke size)")
+    parser.add_argument("--json", type=Path, default=None, help="write the records here")
+    parser.add_argument("--profile-top", type=int, default=0,
+                        help="also profile one bf16 round and list its N most expensive operators (default: off)")
+    add_timing_arguments(parser, repeats=5)
+    args = parser.parse_args()
+    threads = apply_threads(args.threads)
+    saved = os.environ.get("MOTIONLAB_PRECISION")
+    dataset = load_dataset(args.data, profile="smoke")
+    cpu = read_cpu_info().summary
+    auto, why = explain_precision("auto")
+    print(f"{cpu}; {threads} thread(s); auto here = {auto} ({why}); dataset {dataset.key}")
+    parts = None
+    if {"diffusion", *SAMPLERS} & set(args.models) - {"discord-decode"}:
+        parts = diffusion_parts(dataset)
+    records, lines = [], []
+    for name in args.models:
+        if name in TRAINED:
+            rounds, per_round, unit = training_rounds(name, dataset, parts, args.steps), args.steps, "steps"
+        else:
+            (rounds, per_round), unit = sampler_rounds(name, dataset, parts), "items"
+        torch.manual_seed(0)
+        timings = interleaved(rounds, repeats=args.repeats)
+        for precision, t in timings.items():
+            per_item = t.wall / per_round
+            record = {"model": name, "precision": precision, "median_s": float(np.median(per_item)),
+                      "min_s": float(per_item.min()), "max_s": float(per_item.max()),
+                      "cpu_median_s": float(np.median(t.cpu / per_round)), "repeats": args.repeats,
+                      "cpu": cpu, "threads": threads}  # fmt: skip
+            if unit == "steps":
+                record["steps_per_s"] = 1.0 / record["median_s"]
+            else:
+                record["items_per_s"] = 1.0 / record["median_s"]
+                record["steps_per_s"] = record["items_per_s"] / per_round  # sampling calls per second
+            records.append(record)
+        speedup = ratio(timings["fp32"], timings["bf16"])
+        for r in records[-2:]:
+            r["bf16_speedup_wall"], r["bf16_speedup_cpu"] = speedup["wall_median"], speedup["cpu_median"]
+        if args.profile_top:
+            records[-1]["profile"] = where_time_goes(rounds["bf16"], args.profile_top)
+            print(f"  {name} bf16, where the time goes: " + ", ".join(
+                f"{e['op']} {e['share']:.0%}" for e in records[-1]["profile"]), flush=True)  # fmt: skip
+        lines.append(f"| {name} | {unit} | {spread(timings['fp32'].wall / per_round, 1000, 1)} | "
+                     f"{spread(timings['bf16'].wall / per_round, 1000, 1)} | {ratio_text(speedup, 'wall')} | "
+                     f"{ratio_text(speedup, 'cpu')} |")  # fmt: skip
+        print(lines[-1], flush=True)
+    if saved is None:
+        os.environ.pop("MOTIONLAB_PRECISION", None)
+    else:
+        os.environ["MOTIONLAB_PRECISION"] = saved
+    print(f"\n{cpu}, {platform.machine()}, {threads} thread(s), {args.repeats} rounds; ms per step or item, "
+          "median (min–max) of wall time; speed-up = fp32 / bf16 per round")
+    print("| model | per | fp32 ms | bf16 ms | bf16 speed-up (wall) | (CPU) |\n|---|---|---|---|---|---|")
+    print("\n".join(lines))
+    if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(records, indent=1) + "\n")
+        print(f"wrote {args.json}")
+
+
+if __name__ == "__main__":
+    main()
