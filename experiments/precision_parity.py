@@ -6,14 +6,18 @@ CPU of the child process), then scores them with the book's evaluations:
 
 - ``evaluate reconstruction --decoder discord`` (RVQ tokens): the tokenizer's MPJPE, FID and sJPE (feed-forward
   row) and the DisCoRD decoder's (flow row);
-- ``evaluate t2m``: the diffusion model's FID and R-precision, and the real motions' R-precision, which is the
-  evaluator's retrieval accuracy.
+- ``evaluate t2m``: the diffusion model's FID and R-precision, and the real motions' R-precision.
 
-Each precision scores its own models with its own evaluator, as a reader who runs everything in that precision
-would. Run the two precisions side by side, one torch thread each, so that both see the same machine::
+Both precisions score with the same evaluator: the library trains it in fp32 whatever the run's precision (it is a
+metric, and bf16 does not speed it up). Its own parity is measured apart (``--evaluator``): the evaluator trained in
+this precision, uncached, at the laptop budget, and its validation retrieval accuracy.
+
+Run the two precisions side by side, one torch thread each, so that both see the same machine::
 
     python experiments/precision_parity.py --precision fp32 --out book/data/precision_parity &
     python experiments/precision_parity.py --precision bf16 --out book/data/precision_parity &
+    python experiments/precision_parity.py --precision fp32 --out book/data/precision_parity --evaluator &   # after
+    python experiments/precision_parity.py --precision bf16 --out book/data/precision_parity --evaluator &
 
 Writes ``<out>/<precision>.json``: the machine, the per-model training times and both evaluation tables.
 Chapter 98 reads the folder.
@@ -49,6 +53,35 @@ def run(args: list[str], env: dict[str, str]) -> dict[str, float]:
     return {"seconds": round(wall, 1), "cpu_seconds": round(cpu, 1)}
 
 
+def add_evaluator_parity(args: argparse.Namespace) -> None:
+    """Train the laptop evaluator in ``args.precision`` (no cache) and add its training time and final validation
+    retrieval scores to ``<out>/<precision>.json``."""
+    import torch
+
+    from motionlab.data import load_dataset
+    from motionlab.metrics.evaluator_training import (
+        EvaluatorNetworks,
+        build_vocabulary,
+        evaluator_config,
+        evaluator_trainer,
+    )
+
+    torch.set_num_threads(1)
+    dataset = load_dataset(args.data, profile=args.profile)
+    config = evaluator_config(args.profile)
+    vocabulary = build_vocabulary(dataset, config)
+    model = EvaluatorNetworks(config.evaluator, len(vocabulary), torch.Generator().manual_seed(config.seed))
+    trainer = evaluator_trainer(model, dataset, vocabulary, config, precision=args.precision)
+    wall, cpu = time.perf_counter(), time.process_time()
+    trainer.fit()
+    timing = {"seconds": round(time.perf_counter() - wall, 1), "cpu_seconds": round(time.process_time() - cpu, 1)}
+    path = args.out / f"{args.precision}.json"
+    record = json.loads(path.read_text())
+    record["evaluator_parity"] = {"validation": trainer.validate(), "steps": trainer.step, **timing}
+    write_text_atomic(path, json.dumps(record, indent=1) + "\n")
+    print(f"{args.precision}: evaluator {record['evaluator_parity']}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--precision", choices=["fp32", "bf16"], required=True)
@@ -56,7 +89,11 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=5, help="evaluation repeats for the 95%% intervals")
     parser.add_argument("--data", default=None, help="a dataset folder (default: the embedded dataset of the profile)")
     parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--evaluator", action="store_true",
+                        help="only train the evaluator in this precision and add its validation scores to the record")
     args = parser.parse_args()
+    if args.evaluator:
+        return add_evaluator_parity(args)
     data = ["--data", args.data] if args.data else []
     env = {**os.environ, "MOTIONLAB_PRECISION": args.precision, "MOTIONLAB_PROFILE": args.profile,
            "MOTIONLAB_THREADS": "1", "OMP_NUM_THREADS": "1"}  # fmt: skip

@@ -41,6 +41,21 @@ ESTIMATES_S: dict[str, dict[str, float]] = {
              "t2m": 180_000},
 }  # fmt: skip
 
+# A bf16 run's training time is the fp32 estimate over this factor: the CPU-time ratio of whole laptop trainings, fp32
+# vs bf16 side by side on an AMD EPYC with AVX512-BF16 and no AMX (experiments/precision_parity.py, 2026-12-02; the
+# same steps timed alone by benchmarks/bench_train.py: tokenizers 1.27-1.39x, DisCoRD 1.34x, diffusion 1.38x). The
+# evaluator always trains in fp32 (motionlab.metrics.evaluator_training.EVALUATOR_PRECISION).
+BF16_SPEEDUP: dict[str, float] = {"data": 1.0, "tokenizer": 1.37, "toy_flow": 1.0, "evaluator": 1.0, "discord": 1.24,
+                                  "t2m": 1.22}  # fmt: skip
+
+
+def training_estimates(profile: str, precision: str) -> dict[str, float]:
+    """Training CPU seconds per kind of model for ``profile`` trained in ``precision`` (``fp32`` | ``bf16``)."""
+    cost = ESTIMATES_S[get_profile(profile)]
+    if precision == "fp32":
+        return dict(cost)
+    return {kind: seconds / BF16_SPEEDUP[kind] for kind, seconds in cost.items()}
+
 
 # -- recipes: module-level so worker processes can unpickle them --------------------------------------------------
 # Every recipe takes the profile, the data seed and ``data`` (a dataset folder; None: the embedded dataset).
@@ -140,8 +155,11 @@ def book_jobs(profile: str | None = None, seed: int = 0, *, data: str | None = N
     ``data`` trains them on a dataset folder instead of the embedded data; ``flow_options`` override the
     config of the two ``stacked`` DisCoRD decoders (what ``train discord --predict ...`` does).
     """
+    from .precision import network_precision
+    from .train.device import get_device
+
     profile = get_profile(profile)
-    cost = ESTIMATES_S[profile]
+    cost = training_estimates(profile, network_precision(get_device(None)))
     on = {"data": data}
 
     def job(name: str, recipe, args: tuple, kind: str, after: tuple[str, ...] = (), **kwargs) -> Job:
@@ -224,5 +242,5 @@ def jobs_for(names: Sequence[str], profile: str | None = None, **kwargs) -> list
     return [job for name, job in jobs.items() if name in needed]
 
 
-__all__ = ["CHAPTER_MODELS", "ESTIMATES_S", "book_dataset", "book_jobs", "chapter_costs", "forget_book_datasets",
-           "is_cached", "jobs_for", "projection_config"]  # fmt: skip
+__all__ = ["BF16_SPEEDUP", "CHAPTER_MODELS", "ESTIMATES_S", "book_dataset", "book_jobs", "chapter_costs",
+           "forget_book_datasets", "is_cached", "jobs_for", "projection_config", "training_estimates"]  # fmt: skip

@@ -218,3 +218,15 @@ def test_the_plan_line_says_which_precision_trains(monkeypatch):
     monkeypatch.setenv("MOTIONLAB_PRECISION", "bf16")
     line = plan_line([Job("m", lambda: None, (), 60.0, lambda: False)])
     assert line.startswith("to train first (1 models in bf16, asked for;")
+
+
+def test_bf16_plans_use_the_measured_speedups(monkeypatch):
+    from motionlab.book_models import BF16_SPEEDUP, ESTIMATES_S, book_jobs, training_estimates
+
+    assert training_estimates("laptop", "fp32") == ESTIMATES_S["laptop"]
+    bf16 = training_estimates("laptop", "bf16")
+    assert bf16["discord"] == pytest.approx(ESTIMATES_S["laptop"]["discord"] / BF16_SPEEDUP["discord"])
+    assert bf16["evaluator"] == ESTIMATES_S["laptop"]["evaluator"]  # always trained in fp32
+    monkeypatch.setenv("MOTIONLAB_PRECISION", "bf16")
+    jobs = {job.name: job for job in book_jobs("laptop")}
+    assert jobs["discord/rvq"].estimate_s == pytest.approx(bf16["discord"])

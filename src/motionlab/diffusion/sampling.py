@@ -29,7 +29,7 @@ from torch import Tensor, nn
 
 from motionlab.diffusion.posterior import LOG_FLOOR, gumbel_sample, log_p_posterior
 from motionlab.diffusion.transitions import Transitions
-from motionlab.precision import in_precision, network_precision
+from motionlab.precision import in_precision, network_autocast, network_precision
 
 GUIDANCE_SPACES = ("x0", "posterior")
 
@@ -234,8 +234,9 @@ def sample(
     L = int(lengths.max())
     padding_mask = torch.arange(L, device=dev)[None, :] >= lengths.to(dev)[:, None]  # (B, L)
     x = torch.full((B, L), transitions.mask_id, dtype=torch.long, device=dev)
-    for t, t_prev in zip(grid[:-1], grid[1:], strict=True):
-        x = denoise_step(model, transitions, x, t, t_prev, text, text_padding_mask, generator=generator,
-                         guidance_scale=guidance_scale, guidance_on=guidance_on, top_p=top_p, top_k=top_k,
-                         padding_mask=padding_mask)  # fmt: skip
+    with network_autocast(dev):  # posteriors stay fp32 (in_fp32); the network's weights are cast once
+        for t, t_prev in zip(grid[:-1], grid[1:], strict=True):
+            x = denoise_step(model, transitions, x, t, t_prev, text, text_padding_mask, generator=generator,
+                             guidance_scale=guidance_scale, guidance_on=guidance_on, top_p=top_p, top_k=top_k,
+                             padding_mask=padding_mask)  # fmt: skip
     return x.masked_fill(padding_mask, pad_id)

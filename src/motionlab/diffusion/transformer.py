@@ -155,10 +155,11 @@ class Attention(nn.Module):
 
 
 def _attention_kernel(device: torch.device) -> contextlib.AbstractContextManager:
-    """Under CPU bf16 autocast, attention as plain matmuls + softmax: at these lengths (L ≤ 50, S ≤ 33) that is
-    faster than the fused CPU kernel, whose bf16 backward was 37% of a training step (bench_train: the step
-    1.74× → 2.33× fp32's speed). fp32 keeps torch's default choice, bit for bit."""
-    if device.type == "cpu" and torch.is_autocast_enabled("cpu"):
+    """When training under CPU bf16 autocast, attention as plain matmuls + softmax: at these lengths (L ≤ 50,
+    S ≤ 33) that is faster than the fused CPU kernel, whose bf16 backward was 37% of a training step (the step went
+    from 1.74× to 2.33× fp32's speed). Sampling (no gradients) keeps the fused kernel: its forward is not the
+    problem. fp32 keeps torch's default choice, bit for bit."""
+    if device.type == "cpu" and torch.is_grad_enabled() and torch.is_autocast_enabled("cpu"):
         return sdpa_kernel([SDPBackend.MATH])
     return contextlib.nullcontext()
 

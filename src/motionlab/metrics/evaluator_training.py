@@ -340,9 +340,15 @@ def _validation_fn(dataset, vocabulary: CaptionVocabulary, split: str = "val"):
     return val_fn
 
 
+# The evaluator trains in fp32 whatever the run's precision: it is a metric (every precision's models are scored by
+# the same evaluator, so their FIDs compare), and bf16 does not pay here: its GRUs gain nothing under autocast
+# (benchmarks/bench_train.py: a bf16 step 0.99x the fp32 one on an AVX512-BF16 CPU).
+EVALUATOR_PRECISION = "fp32"
+
+
 def evaluator_trainer(model: EvaluatorNetworks, dataset, vocabulary: CaptionVocabulary,
                       config: EvaluatorTrainingConfig, *, workdir: Path | None = None, device=None,
-                      progress: bool = False, precision: str | None = None) -> Trainer:  # fmt: skip
+                      progress: bool = False, precision: str = EVALUATOR_PRECISION) -> Trainer:  # fmt: skip
     """The :class:`~motionlab.train.Trainer` of the evaluator's networks on ``dataset``'s train split (not run yet:
     :func:`train_evaluator` and the cache fit it; ``benchmarks/bench_train.py`` times its steps)."""
 
@@ -430,6 +436,6 @@ def load_or_train_evaluator(
     extra = cache_extra(dataset, vocabulary)
     model = train_or_load(MODEL_NAME, config, _builder(vocabulary, config.seed),
                           _train_fn(dataset, vocabulary, config, progress, device), profile,
-                          extra=extra, device=device, retrain=retrain)  # fmt: skip
-    history = load_result(MODEL_NAME, config, profile, extra, device)["history"]
+                          extra=extra, device=device, retrain=retrain, precision=EVALUATOR_PRECISION)  # fmt: skip
+    history = load_result(MODEL_NAME, config, profile, extra, device, EVALUATOR_PRECISION)["history"]
     return EmbeddedEvaluator(model, vocabulary, dataset.normalizer, history=history)

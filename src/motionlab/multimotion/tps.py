@@ -40,6 +40,7 @@ import torch
 from torch import Tensor, nn
 
 from motionlab.diffusion import Transitions, denoise_step, segment_cross_mask, timestep_grid
+from motionlab.precision import network_autocast
 
 UNIT = 4  # frames per motion token (the VQ-VAE's temporal downsampling)
 MAX_ACTIONS = 256  # per instance (M2D2M's Fig. 4 goes up to 256 prompts)
@@ -312,14 +313,16 @@ def two_phase_sample(
     on_canvas = joint is not None
     x = torch.full((layout.n_instances, layout.canvas_length) if on_canvas else tuple(seg_padding.shape),
                    mask_id, dtype=torch.long, device=dev)  # fmt: skip
-    for t, t_prev in zip(grid[:-1], grid[1:], strict=True):
-        if t > T_s:  # joint: (B, L_c), all segments of an instance in one sequence
-            x = denoise_step(model, transitions, x, t, t_prev, joint.text, joint.text_padding_mask,
-                             padding_mask=joint.padding_mask, cross_mask=joint.cross_mask, **step_kw)  # fmt: skip
-            continue
-        if on_canvas:  # the switch: cut the canvas into one row per segment
-            x, on_canvas = layout.split(x, mask_id), False
-        x = denoise_step(model, transitions, x, t, t_prev, tokens, text_pad, padding_mask=seg_padding, **step_kw)
+    with network_autocast(dev):  # posteriors stay fp32 (in_fp32); the network's weights are cast once
+        for t, t_prev in zip(grid[:-1], grid[1:], strict=True):
+            if t > T_s:  # joint: (B, L_c), all segments of an instance in one sequence
+                x = denoise_step(model, transitions, x, t, t_prev, joint.text, joint.text_padding_mask,
+                                 padding_mask=joint.padding_mask, cross_mask=joint.cross_mask, **step_kw)  # fmt: skip
+                continue
+            if on_canvas:  # the switch: cut the canvas into one row per segment
+                x, on_canvas = layout.split(x, mask_id), False
+            x = denoise_step(model, transitions, x, t, t_prev, tokens, text_pad, padding_mask=seg_padding,
+                             **step_kw)  # fmt: skip
     if on_canvas:  # T_s = 0: never left the canvas
         x = layout.split(x, mask_id)
     return MultiMotionTokens(x.masked_fill(seg_padding, pad_id), layout, pad_id)

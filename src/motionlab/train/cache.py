@@ -142,20 +142,20 @@ def config_hash(config: Any, extra: dict[str, Any] | None = None) -> str:
 
 
 def artefact_dir(name: str, config: Any, profile: str | None = None, extra: dict[str, Any] | None = None,
-                 device: str | torch.device | None = None) -> Path:  # fmt: skip
+                 device: str | torch.device | None = None, precision: str | None = None) -> Path:  # fmt: skip
     """Where the finished model for this (name, profile, config, extra, precision) lives (it may not exist yet).
 
-    The precision is the run's, resolved for the device the model trains on (:mod:`motionlab.precision`): a model
-    trained in bf16 is another artefact than the same config trained in fp32.
+    ``precision`` is what the model trains in: the run's (:mod:`motionlab.precision`, resolved for ``device``)
+    unless the model fixes its own. A model trained in bf16 is another artefact than the same config in fp32.
     """
     if not name or "/" in name or "\\" in name or name.startswith("."):
         raise ValueError(f"name must be a plain folder name, got {name!r}")
-    return cache_path("models", name, get_profile(profile), config_hash(config, _keyed(extra, device)))
+    return cache_path("models", name, get_profile(profile), config_hash(config, _keyed(extra, device, precision)))
 
 
-def _keyed(extra: dict[str, Any] | None, device: str | torch.device | None) -> dict[str, Any]:
+def _keyed(extra: dict[str, Any] | None, device: str | torch.device | None, precision: str | None) -> dict[str, Any]:
     """``extra`` plus the precision the model trains in: what the cache key covers besides the config."""
-    return {**(extra or {}), "precision": resolve_precision(None, get_device(device))}
+    return {**(extra or {}), "precision": resolve_precision(precision, get_device(device))}
 
 
 class DamagedArtefactError(ValueError):
@@ -176,8 +176,8 @@ def file_sha256(path: str | os.PathLike) -> str:
 
 
 def is_trained(name: str, config: Any, profile: str | None = None, extra: dict[str, Any] | None = None,
-               device: str | torch.device | None = None) -> bool:  # fmt: skip
-    return (artefact_dir(name, config, profile, extra, device) / "model.safetensors").is_file()
+               device: str | torch.device | None = None, precision: str | None = None) -> bool:  # fmt: skip
+    return (artefact_dir(name, config, profile, extra, device, precision) / "model.safetensors").is_file()
 
 
 def load_trained(
@@ -188,13 +188,14 @@ def load_trained(
     *,
     extra: dict[str, Any] | None = None,
     device: str | None = None,
+    precision: str | None = None,
 ) -> nn.Module:
     """Build the model from ``config`` and load its finished weights; ``FileNotFoundError`` if never trained.
 
     Damaged files raise :class:`DamagedArtefactError` (a ``ValueError``) naming the file; the folder is left
     in place (:func:`train_or_load` moves it aside and retrains).
     """
-    folder = artefact_dir(name, config, profile, extra, device)
+    folder = artefact_dir(name, config, profile, extra, device, precision)
     if not (folder / "model.safetensors").is_file():
         raise FileNotFoundError(f"no trained {name!r} for profile {get_profile(profile)!r} at {folder}; train it first")
     model = build_fn(config)
@@ -258,9 +259,9 @@ def move_aside(folder: Path) -> Path:
 
 
 def load_result(name: str, config: Any, profile: str | None = None, extra: dict[str, Any] | None = None,
-                device: str | torch.device | None = None) -> Any:  # fmt: skip
+                device: str | torch.device | None = None, precision: str | None = None) -> Any:  # fmt: skip
     """What ``train_fn`` returned when the model was trained (e.g. its loss history)."""
-    path = artefact_dir(name, config, profile, extra, device) / "result.json"
+    path = artefact_dir(name, config, profile, extra, device, precision) / "result.json"
     if not path.is_file():
         raise FileNotFoundError(f"no result for {name!r} at {path}")
     return json.loads(path.read_text())
@@ -276,19 +277,21 @@ def train_or_load(
     extra: dict[str, Any] | None = None,
     device: str | None = None,
     retrain: bool = False,
+    precision: str | None = None,
 ) -> nn.Module:
     """Load the cached model for ``config`` or build it, train it, cache it, and return it (in eval mode).
 
     ``build_fn(config) -> model`` must be deterministic; ``train_fn(model, workdir)`` trains in place,
     may keep resumable checkpoints in ``workdir``, and may return JSON-able results (kept as result.json).
+    ``precision``: what the model trains in (part of the key), None for the run's; ``train_fn`` must train in it.
     """
-    final = artefact_dir(name, config, profile, extra, device)
+    final = artefact_dir(name, config, profile, extra, device, precision)
     probed = None if retrain else _take_probed(final, device)
     if probed is not None:
         return probed
     if not retrain and (final / "model.safetensors").is_file():
         try:
-            model = load_trained(name, config, build_fn, profile, extra=extra, device=device)
+            model = load_trained(name, config, build_fn, profile, extra=extra, device=device, precision=precision)
             _keep_probed(final, device, model)
             return model
         except DamagedArtefactError as err:
@@ -303,7 +306,7 @@ def train_or_load(
     result = train_fn(model, work)
     ctx = current_context()
     if ctx.is_main:  # under torchrun every rank trained the same weights; one writes them
-        _publish(final, work, model, result, name, config, profile, _keyed(extra, device))
+        _publish(final, work, model, result, name, config, profile, _keyed(extra, device, precision))
     barrier(ctx)
     return model.to(get_device(device)).eval()
 
