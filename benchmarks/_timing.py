@@ -12,9 +12,11 @@
 from __future__ import annotations
 
 import argparse
+import json
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -71,6 +73,15 @@ def ratio(slow: Timing, fast: Timing) -> dict[str, float]:
         r = getattr(slow, kind) / np.maximum(getattr(fast, kind), 1e-12)
         out |= {f"{kind}_median": float(np.median(r)), f"{kind}_min": float(r.min()), f"{kind}_max": float(r.max())}
     return out
+
+
+def write_records(path: Path | None, records: list[dict]) -> None:
+    """Write ``records`` as a JSON list to ``path`` (its folder created), or nothing when ``path`` is None."""
+    if path is None:
+        return
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(records, indent=1) + "\n")
+    print(f"wrote {path}")
 
 
 def spread(values: np.ndarray, scale: float = 1.0, digits: int = 3) -> str:

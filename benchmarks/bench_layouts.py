@@ -20,13 +20,12 @@ baseline's time over the variant's, per round.
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 import numpy as np
 import torch
 import torch.nn.functional as F
-from _timing import add_timing_arguments, apply_threads, interleaved, ratio, ratio_text, spread
+from _timing import add_timing_arguments, apply_threads, interleaved, ratio, ratio_text, spread, write_records
 
 from motionlab.precision import read_cpu_info
 
@@ -112,10 +111,7 @@ def main() -> None:
                             "cpu": cpu})  # fmt: skip
         print(f"| {model} | {what} ({c_in}→{c_out}, k{k}" + (f" s{stride}" if stride > 1 else "")
               + (f" d{dilation}" if dilation > 1 else "") + f", T {T}) | " + " | ".join(cells) + " |", flush=True)
-    if args.json is not None:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(records, indent=1) + "\n")
-        print(f"wrote {args.json}")
+    write_records(args.json, records)
 
 
 if __name__ == "__main__":

@@ -28,7 +28,6 @@ A training round is ``--steps`` optimizer steps. ``--json OUT`` writes one recor
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import platform
 from collections.abc import Callable
@@ -36,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from _timing import add_timing_arguments, apply_threads, interleaved, ratio, ratio_text, spread
+from _timing import add_timing_arguments, apply_threads, interleaved, ratio, ratio_text, spread, write_records
 
 from motionlab.data import load_dataset
 from motionlab.precision import explain_precision, read_cpu_info
@@ -242,10 +241,7 @@ def main() -> None:
           "median (min–max) of wall time; speed-up = fp32 / bf16 per round")
     print("| model | per | fp32 ms | bf16 ms | bf16 speed-up (wall) | (CPU) |\n|---|---|---|---|---|---|")
     print("\n".join(lines))
-    if args.json is not None:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
-        args.json.write_text(json.dumps(records, indent=1) + "\n")
-        print(f"wrote {args.json}")
+    write_records(args.json, records)
 
 
 if __name__ == "__main__":
