@@ -23,7 +23,7 @@ def write_layout(root: Path, with_meta: bool) -> MotionDataset:
     clips, test_ids = {}, []
     for i in range(len(FAMILIES) * 3 + 4):
         cid = f"E{i:06d}"
-        n = int(rng.integers(40, 120))
+        n = int(rng.integers(40, 120)) + 4  # every clip long enough for the pool (MIN_ACTION_FRAMES)
         np.save(root / "new_joint_vecs" / f"{cid}.npy", rng.normal(size=(n, 263)).astype(np.float32))
         if i < len(FAMILIES) * 3:
             fam, single = FAMILIES[i % len(FAMILIES)], True
@@ -96,3 +96,15 @@ def test_bad_inputs(dataset):
         build_multi_action_testset(dataset, 19, distinct_families=False)
     with pytest.raises(ValueError, match="n_instances"):
         build_multi_action_testset(dataset, 2, n_instances=0)
+
+
+def test_the_pool_keeps_only_actions_every_baseline_can_take(dataset):
+    from motionlab.multimotion import DEFAULT_TRANSITION, MIN_ACTION_FRAMES, shortened_lengths
+
+    lengths = sorted(p.clip.length for p in single_action_pool(dataset))
+    shorter = single_action_pool(dataset, min_frames=lengths[len(lengths) // 2] + 4)  # half of them too short now
+    assert 0 < len(shorter) < len(lengths) and all(p.clip.length >= lengths[len(lengths) // 2] + 4 for p in shorter)
+    assert MIN_ACTION_FRAMES == DEFAULT_TRANSITION + 4  # 20 frames to each neighbour's transition, 4 left
+    assert shortened_lengths([MIN_ACTION_FRAMES] * 3) == [24, 4, 24]
+    with pytest.raises(ValueError, match="too short"):
+        shortened_lengths([MIN_ACTION_FRAMES - 4] * 3)

@@ -24,7 +24,7 @@ from .evaluation import (
 )
 from .generate import METHODS, MULTI_MOTION_ETA, MULTI_MOTION_GUIDANCE, MultiMotion, MultiMotionGenerator
 from .stitch import blend_segments, blend_weights, concatenate_segments, split_segments, transition_rows
-from .testset import MultiActionInstance, PoolClip, build_multi_action_testset, single_action_pool
+from .testset import MIN_ACTION_FRAMES, MultiActionInstance, PoolClip, build_multi_action_testset, single_action_pool
 from .tps import (
     JOINT_TEXTS,
     MAX_ACTIONS,
@@ -39,7 +39,8 @@ from .tps import (
 )
 
 __all__ = [
-    "DEFAULT_TRANSITION", "JOINT_TEXTS", "JointCondition", "MAX_ACTIONS", "METHODS", "METRICS", "MULTI_MOTION_ETA",
+    "DEFAULT_TRANSITION", "JOINT_TEXTS", "JointCondition", "MAX_ACTIONS", "METHODS", "METRICS", "MIN_ACTION_FRAMES",
+    "MULTI_MOTION_ETA",
     "MULTI_MOTION_GUIDANCE",
     "MultiActionInstance", "MultiMotion", "MultiMotionGenerator", "MultiMotionReference", "MultiMotionTokens",
     "PoolClip", "SegmentLayout", "blend_segments", "blend_weights", "build_multi_action_testset",

@@ -3,10 +3,10 @@
 M2D2M keeps the test captions that name a single action verb and draws N of them (no overlap) per
 instance; each action keeps the length of the motion it came from. Here:
 
-* **pool**: clips of the split that show one action. The embedded dataset records this in its
-  ``meta.json`` (``single_action`` and ``family`` per clip); for a folder without it (real HumanML3D) a clip
-  counts as single-action when one of its captions has exactly one ``VERB`` tag, and that verb's lemma is
-  its family.
+* **pool**: clips of the split that show one action and last at least :data:`MIN_ACTION_FRAMES`. The embedded
+  dataset records this in its ``meta.json`` (``single_action`` and ``family`` per clip); for a folder without it
+  (real HumanML3D) a clip counts as single-action when one of its captions has exactly one ``VERB`` tag, and that
+  verb's lemma is its family.
 * **instance**: N distinct families (or, with ``distinct_families=False``, just N distinct clips), one clip
   of each family and one of its captions, drawn uniformly with a seeded ``numpy`` generator; the length
   is the clip's, floored to a multiple of 4, and the real segment is its first that many frames.
@@ -25,6 +25,9 @@ from motionlab.data import Caption, MotionClip, MotionDataset, floor_to_unit
 from motionlab.multimotion.stitch import concatenate_segments
 
 MAX_ACTIONS = 32  # M2D2M's Table 4 goes up to N = 32
+# The shortest action every compared method can take: SLERP and Handshake give 20 frames of each end of an inner action
+# to a 40-frame transition (baselines.DEFAULT_TRANSITION) and need 4 frames left. HumanML3D-length clips start at 40.
+MIN_ACTION_FRAMES = 44
 
 
 @dataclass(frozen=True)
@@ -62,13 +65,15 @@ def _single_verb(caption: Caption) -> str | None:
     return verbs[0] if len(verbs) == 1 else None
 
 
-def single_action_pool(dataset: MotionDataset, split: str = "test", unit: int = 4) -> list[PoolClip]:
-    """Single-action clips of ``split`` with their family (see the module docstring)."""
+def single_action_pool(dataset: MotionDataset, split: str = "test", unit: int = 4,
+                       min_frames: int = MIN_ACTION_FRAMES) -> list[PoolClip]:  # fmt: skip
+    """Single-action clips of ``split`` of at least ``min_frames`` (after flooring to ``unit``), with their family
+    (see the module docstring)."""
     meta_path = dataset.root / "meta.json"
     meta = json.loads(meta_path.read_text())["clips"] if meta_path.is_file() else None
     pool = []
     for clip in dataset.split(split):
-        if floor_to_unit(clip.length, unit) < unit:
+        if floor_to_unit(clip.length, unit) < max(unit, min_frames):
             continue
         if meta is not None:
             info = meta.get(clip.name)
