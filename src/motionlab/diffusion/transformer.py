@@ -26,15 +26,14 @@
 
 from __future__ import annotations
 
-import contextlib
 import math
 from dataclasses import dataclass
 
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
-from torch.nn.attention import SDPBackend, sdpa_kernel
 
+from motionlab.precision import attention_kernel
 from motionlab.profiles import get_profile
 
 
@@ -148,20 +147,10 @@ class Attention(nn.Module):
         H = self.n_heads
         q = self.q(x).view(B, L, H, d // H).transpose(1, 2)  # (B, H, L, dh)
         k, v = self.kv(source).view(B, source.shape[1], 2, H, d // H).permute(2, 0, 3, 1, 4)  # (B, H, S, dh)
-        with _attention_kernel(x.device):
+        with attention_kernel(x.device):
             y = F.scaled_dot_product_attention(q, k, v, attn_mask=bias,
                                                dropout_p=self.dropout if self.training else 0.0)  # fmt: skip
         return self.out(y.transpose(1, 2).reshape(B, L, d))
-
-
-def _attention_kernel(device: torch.device) -> contextlib.AbstractContextManager:
-    """When training under CPU bf16 autocast, attention as plain matmuls + softmax: at these lengths (L ≤ 50,
-    S ≤ 33) that is faster than the fused CPU kernel, whose bf16 backward was 37% of a training step (the step went
-    from 1.74× to 2.33× fp32's speed). Sampling (no gradients) keeps the fused kernel: its forward is not the
-    problem. fp32 keeps torch's default choice, bit for bit."""
-    if device.type == "cpu" and torch.is_grad_enabled() and torch.is_autocast_enabled("cpu"):
-        return sdpa_kernel([SDPBackend.MATH])
-    return contextlib.nullcontext()
 
 
 class Block(nn.Module):

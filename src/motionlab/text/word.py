@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import torch
 from torch import Tensor, nn
 
+from motionlab.precision import attention_kernel
 from motionlab.text.base import TextEncoder, TextFeatures, check_texts
 
 PAD, UNK, BOS = "<pad>", "<unk>", "<s>"
@@ -111,7 +112,8 @@ class WordTextEncoder(nn.Module, TextEncoder):
         device = self.embed.weight.device
         ids, pad = (x.to(device) for x in self.tokenize(texts))  # (B, S)
         h = self.embed(ids) + self.pos(torch.arange(ids.shape[1], device=device))[None]  # (B, S, dim)
-        h = self.norm(self.layers(h, src_key_padding_mask=pad))
+        with attention_kernel(device):  # plain-matmul attention when training in CPU bf16 (motionlab.precision)
+            h = self.norm(self.layers(h, src_key_padding_mask=pad))
         keep = (~pad).unsqueeze(-1).to(h.dtype)
         h = h * keep  # padded features are exactly zero
         sentence = h.sum(dim=1) / keep.sum(dim=1)  # (B, dim)
