@@ -33,7 +33,8 @@ STAMP_NAME = ".vendor-stamp"
 # (package folder under node_modules, files or folders to copy, target folder under dest)
 WIDGETS = "@jupyter-widgets/html-manager/dist"
 MATHJAX = "mathjax/es5"
-# The widget bundle references its icon fonts by relative URL, so they travel with it. The other
+# The widget bundle references its icon fonts relative to its own URL, so they travel with it (the page maps that URL
+# to _static/widgets/: book/_ext/static/widgets-setup.js). The other
 # bundles in dist/ (embed.js for non-AMD pages, libembed-amd.js, a 6 MB source map) are not used.
 WIDGET_SKIP = {"embed.js", "embed.js.map", "embed.js.LICENSE.txt", "libembed-amd.js"}
 # tex-chtml.js is the single component the book loads; it lazily fetches TeX extensions (input/),

@@ -769,10 +769,22 @@ class ClaimsTable:
         """One line per paper: ``DisCoRD: 5 of 11 claims hold, 4 do not hold, 2 inconclusive``."""
         return [f"{paper}: {count_sentence(counts)}" for paper, counts in self.by_paper().items()]
 
+    def summary_html(self) -> str:
+        """The summary lines as a box: "What reproduces" opens with it."""
+        lines = "".join(f'<p class="ml-claims-summary" style="margin:0.2em 0"><b>{html.escape(paper)}</b>: '
+                        f"{html.escape(count_sentence(counts))}.</p>" for paper, counts in self.by_paper().items())
+        return (f'<div class="admonition note ml-findings" style="border-left:4px solid #276be9;padding:0.3em 0.9em">'
+                f'<p class="admonition-title" style="font-weight:bold">What reproduces (profile '
+                f"<code>{html.escape(self.profile)}</code>)</p>{lines}</div>")
+
     def _repr_html_(self) -> str:
+        return self.html()
+
+    def html(self, summary: bool = True) -> str:
+        """The table as HTML; ``summary=False`` leaves out the summary lines (shown elsewhere on the page)."""
         esc = html.escape
         out = ['<div class="ml-claims">']
-        for paper, counts in self.by_paper().items():
+        for paper, counts in self.by_paper().items() if summary else ():
             out.append(f'<p class="ml-claims-summary" style="margin:0.2em 0"><b>{esc(paper)}</b>: '
                        f"{esc(count_sentence(counts))}.</p>")
         out += ['<table class="ml-claims-table" style="width:100%;font-size:0.9em">',
@@ -880,21 +892,23 @@ class ChapterFindings:
         return {v: sum(row.verdict == v for row in self.rows) for v in VERDICTS}
 
     def _repr_html_(self) -> str:
+        """A compact box: one line per finding (verdict, statement, source, our numbers), then where it comes from."""
         esc = html.escape
         items = []
         for row in self.rows:
-            source = f' <small class="ml-source">({esc(row.source)})</small>' if row.source else ""
-            items.append(f"<li>{_verdict_html(row.verdict)}: {esc(row.statement)}{source}<br>"
-                         f'<small class="ml-ours">ours: {esc(row.ours)}</small></li>')
+            source = f' <span class="ml-source">({esc(row.source)})</span>' if row.source else ""
+            items.append(f'<li style="margin:0.15em 0">{_verdict_html(row.verdict)}: {esc(row.statement)}{source} '
+                         f'<span class="ml-ours" style="opacity:0.8">Ours: {esc(row.ours)}.</span></li>')
         claims = sum(bool(row.source) for row in self.rows)
         summary = count_sentence(self.counts(), "claims of the papers" if claims == len(self.rows) else "statements")
         body = "\n".join(items) if items else "<li>This chapter recorded nothing yet.</li>"
-        return (f'<div class="admonition note ml-findings" style="border-left:4px solid #1a7f37;padding:0.3em 0.9em">'
+        return (f'<div class="admonition note ml-findings" style="border-left:4px solid #276be9;padding:0.2em 0.8em;'
+                f'font-size:0.9em;line-height:1.4">'
                 f'<p class="admonition-title" style="font-weight:bold">What this chapter found: {esc(summary)}</p>'
-                f'<ul style="margin:0.2em 0 0.4em 0">{body}</ul>'
-                f'<p style="margin:0"><small>Generated from the numbers this chapter recorded (profile '
-                f"<code>{esc(self.profile)}</code>); <i>What reproduces</i> judges every claim of both papers."
-                "</small></p></div>")
+                f'<ul style="margin:0.2em 0;padding-left:1.2em">{body}</ul>'
+                f'<p style="margin:0.2em 0 0.1em 0;opacity:0.8">Generated from the numbers this chapter recorded '
+                f"(profile <code>{esc(self.profile)}</code>); <i>What reproduces</i> judges every claim of both papers."
+                "</p></div>")
 
     def _repr_markdown_(self) -> str:
         lines = [f"**What this chapter found** (profile `{self.profile}`):", ""]

@@ -5,7 +5,8 @@ a copy of chapter 03 (so nothing in the repository is written; ``MOTIONLAB_LAB_N
 opens it in headless Chromium, runs every cell (smoke profile, one torch thread) and waits for the kernel. No cell may
 fail. Then it types 8 into the ``steps`` slider of the chapter's sampling widget, presses Enter and waits for the
 widget's figure to change; the page must never show "Error displaying widget" nor an error in a widget's output (a
-callback that raises). Skips where no browser is installed (see ``conftest.py``).
+callback that raises). A second, planted notebook whose callback raises proves the check sees such an error. Skips
+where no browser is installed (see ``conftest.py``).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ import time
 import urllib.request
 from pathlib import Path
 
+import nbformat
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
@@ -46,12 +48,29 @@ def venv_bin(name: str) -> str:
     return found
 
 
+def planted_notebook():
+    """A notebook whose widget callback raises once its slider moves: what the test must catch."""
+    nb = nbformat.v4.new_notebook()
+    nb.cells = [nbformat.v4.new_code_cell(
+        "import ipywidgets as widgets\nimport matplotlib.pyplot as plt\n\n\n"
+        "def show(steps=2):\n"
+        "    if steps != 2:\n"
+        "        raise RuntimeError('planted fault: this callback raises')\n"
+        "    fig, ax = plt.subplots(figsize=(2, 2))\n"
+        "    ax.plot([0, steps])\n"
+        "    plt.show()\n\n\n"
+        "widgets.interact(show, steps=widgets.IntSlider(value=2, min=1, max=9, description='steps'));")]
+    nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
+    return nb
+
+
 @pytest.fixture(scope="module")
 def lab(tmp_path_factory):
-    """A running JupyterLab: yields (url of the copied notebook, log file)."""
+    """A running JupyterLab on a folder with a copy of the chapter and the planted notebook: yields name -> URL."""
     jupyter = venv_bin("jupyter")
     root = tmp_path_factory.mktemp("lab-root")
     shutil.copy(NOTEBOOK, root / NOTEBOOK.name)
+    nbformat.write(planted_notebook(), root / "planted_fault.ipynb")
     settings = root.parent / f"{root.name}-settings"
     # With JupyterLab's default windowing, cells off screen are not in the page: render them all.
     tracker = settings / "@jupyterlab" / "notebook-extension" / "tracker.jupyterlab-settings"
@@ -85,7 +104,7 @@ def lab(tmp_path_factory):
             if proc.poll() is not None or time.monotonic() > deadline:
                 pytest.fail(f"JupyterLab did not start:\n{log.read_text()[-3000:]}")
             time.sleep(0.5)
-        yield f"{base}/lab/tree/{NOTEBOOK.name}?token={token}", log
+        yield lambda name: f"{base}/lab/tree/{name}?token={token}"
     finally:
         proc.terminate()
         try:
@@ -153,14 +172,10 @@ def wait_for(driver, script, ready, timeout, what, *args):
     pytest.fail(f"timed out after {timeout} s waiting for {what}; last state: {value}")
 
 
-def test_chapter_03_runs_and_its_slider_redraws(lab, browser_factory):
-    from selenium.webdriver.common.keys import Keys
-
-    url, log = lab
-    driver = browser_factory(offline=True, bypass="127.0.0.1")
+def run_all(driver, url: str) -> dict:
+    """Open the notebook, run every cell, wait for the kernel; return the final state (no cell may fail)."""
     driver.get(url)
     wait_for(driver, STATE_JS, lambda s: s is not None and s["kernel"] == "idle", 180, "the notebook and its kernel")
-
     start = time.monotonic()
     driver.execute_script("window.jupyterapp.commands.execute('notebook:run-all-cells');")
     time.sleep(2)
@@ -168,22 +183,45 @@ def test_chapter_03_runs_and_its_slider_redraws(lab, browser_factory):
                      lambda s: s["errors"] or (s["kernel"] == "idle" and s["busy"] == 0 and s["run"] == s["cells"]),
                      RUN_TIMEOUT, "every cell to run")
     assert not state["errors"], f"a cell failed: {state['errors']}"
-    print(f"chapter ran in {time.monotonic() - start:.0f} s ({state['cells']} code cells)")
+    print(f"{url.split('?')[0].rsplit('/', 1)[-1]} ran in {time.monotonic() - start:.0f} s ({state['cells']} cells)")
+    return state
 
-    widgets = driver.execute_script(WIDGETS_JS)
-    assert not widgets["broken"] and not widgets["errors"], widgets
-    found = wait_for(driver, FIND_JS, lambda f: f is not None and f["image"], 60, f"the '{SLIDER}' slider", SLIDER)
-    before = found["image"]
 
-    readout = found["readout"]
+def move_slider(driver, label: str, value: str) -> tuple[dict, dict]:
+    """Type ``value`` into the readout of the slider described ``label``; wait for its figure to change or for an
+    error in the widget's output. Returns (before, after) as FIND_JS reports them."""
+    from selenium.webdriver.common.keys import Keys
+
+    before = wait_for(driver, FIND_JS, lambda f: f is not None and f["image"], 60, f"the '{label}' slider", label)
+    readout = before["readout"]
     driver.execute_script("arguments[0].scrollIntoView({block: 'center'});", readout)
     readout.click()
     readout.send_keys(Keys.CONTROL, "a")
-    readout.send_keys("8", Keys.ENTER)
-    after = wait_for(driver, FIND_JS, lambda f: f is not None and f["image"] and f["image"] != before
-                     or bool(driver.execute_script(WIDGETS_JS)["errors"]), 120, "the figure to change", SLIDER)
+    readout.send_keys(value, Keys.ENTER)
+    after = wait_for(driver, FIND_JS, lambda f: f is not None and f["image"] != before["image"]
+                     or bool(driver.execute_script(WIDGETS_JS)["errors"]), 120, "the figure to change", label)
+    return before, after
+
+
+def test_chapter_03_runs_and_its_slider_redraws(lab, browser_factory):
+    driver = browser_factory(offline=True, bypass="127.0.0.1")
+    run_all(driver, lab(NOTEBOOK.name))
+    widgets = driver.execute_script(WIDGETS_JS)
+    assert not widgets["broken"] and not widgets["errors"], widgets
+
+    before, after = move_slider(driver, SLIDER, "8")
     widgets = driver.execute_script(WIDGETS_JS)
     assert not widgets["broken"], f"a widget view failed: {widgets['broken']}"
     assert not widgets["errors"], f"moving the slider raised in the widget's callback:\n{widgets['errors']}"
     assert after["value"].strip() == "8", after["value"]
-    assert after["image"] != before
+    assert after["image"] and after["image"] != before["image"], "the figure did not change"
+
+
+def test_the_check_sees_a_callback_that_raises(lab, browser_factory):
+    """The planted fault: the same checks, on a widget whose callback raises, must report it."""
+    driver = browser_factory(offline=True, bypass="127.0.0.1")
+    run_all(driver, lab("planted_fault.ipynb"))
+    assert not driver.execute_script(WIDGETS_JS)["errors"]  # nothing raised before the slider moves
+    move_slider(driver, "steps", "8")
+    errors = driver.execute_script(WIDGETS_JS)["errors"]
+    assert errors and "planted fault" in errors[0], errors

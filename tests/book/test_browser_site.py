@@ -4,8 +4,8 @@ Reads the site ``make book`` rendered (``_build/html``; ``MOTIONLAB_SITE`` point
 of the book in headless Chromium at 1300×1000 from ``file://``, every http(s) request sent to a dead proxy. Each page
 must log no console error (a script error, a missing file), send no request off the machine, typeset all its math
 with MathJax and render every saved widget view; its text must carry no absolute path of this machine and no Python
-warning. Skips where no site was built (``make book PROFILE=smoke`` builds one) or no browser is installed (see
-``conftest.py``).
+warning; and no table, code cell or printed output may scroll sideways, no figure be shrunk to fit the column. Skips
+where no site was built (``make book PROFILE=smoke`` builds one) or no browser is installed (see ``conftest.py``).
 """
 
 from __future__ import annotations
@@ -62,6 +62,17 @@ function math() {
   return {total: nodes.length, typeset: nodes.filter(n => n.querySelector('mjx-container') ||
                                                     n.tagName === 'MJX-CONTAINER').length};
 }
+function layout() {
+  // what scrolls sideways at this width (tables, code, printed output), and figures shrunk to fit the column
+  const wide = [...document.querySelectorAll('article .cell_output .pst-scrollable-table-container, ' +
+                                             'article .cell_output .table-wrapper, article div.cell pre')]
+    .filter(e => e.scrollWidth > e.clientWidth + 2)
+    .map(e => (e.closest('.cell_input') ? 'code: ' : 'output: ') + e.innerText.slice(0, 60));
+  const shrunk = [...document.querySelectorAll('article .cell_output img')]
+    .filter(i => i.clientWidth > 0 && i.naturalWidth > 1.1 * i.clientWidth)
+    .map(i => Math.round(100 * i.clientWidth / i.naturalWidth) + '% of ' + i.naturalWidth + ' px');
+  return {wide: wide, shrunk: shrunk};
+}
 function poll() {
   const v = views(), m = math();
   const mathReady = !window.MathJax || !MathJax.startup || MathJax.startup.document?.state?.() >= 200 ||
@@ -69,6 +80,7 @@ function poll() {
   const settled = v.every(x => x.drawn || x.error) && m.typeset === m.total && document.readyState === 'complete';
   if ((settled && mathReady) || Date.now() - start > 30000) {
     done({views: v, math: m, text: document.body.innerText, height: document.documentElement.scrollHeight,
+          layout: layout(),
           resources: performance.getEntriesByType('resource').map(r => r.name)});
   } else {
     setTimeout(poll, 200);
@@ -148,3 +160,21 @@ def test_outputs_carry_no_machine_path_and_no_warning(reports):
     warning = re.compile(r"\b\w*Warning: ")
     warned = {page: warning.findall(r["text"]) for page, r in reports.items() if warning.search(r["text"])}
     assert not warned, f"Python warnings in the rendered outputs: {warned}"
+
+
+def test_nothing_scrolls_sideways_and_figures_keep_their_size(reports):
+    wide = {page: r["layout"]["wide"] for page, r in reports.items() if r["layout"]["wide"]}
+    assert not wide, f"wider than the content column at 1300 px: {wide}"
+    shrunk = {page: r["layout"]["shrunk"] for page, r in reports.items() if r["layout"]["shrunk"]}
+    assert not shrunk, f"figures scaled down to fit the column (their labels shrink with them): {shrunk}"
+
+
+def test_the_checks_see_a_planted_fault(browser, tmp_path):
+    """A page with a script error, a missing file and a request to the network: each check must report it."""
+    page = tmp_path / "planted.html"
+    page.write_text("<!DOCTYPE html><html><body><p>planted</p><script>throw new Error('planted fault');</script>"
+                    '<img src="missing.png"><img src="https://example.org/remote.png"></body></html>')
+    report = open_page(browser, page)
+    console = " ".join(e["message"] for e in report["console"])
+    assert "planted fault" in console and "missing.png" in console, console
+    assert any(u.startswith("https://example.org/") for u in report["requests"]), report["requests"]
