@@ -141,7 +141,7 @@ const outputs = [...document.querySelectorAll(
 return {broken: (text.match(/Error displaying widget[^\\n]*/g) || []),
         errors: outputs.filter(o => o.matches('[data-mime-type="application/vnd.jupyter.stderr"]') ||
                                     o.querySelector('.jp-RenderedText[data-mime-type="application/vnd.jupyter.stderr"]'))
-                       .map(o => o.innerText.slice(-500))};
+                       .map(o => o.innerText.trim().split('\\n').slice(-1)[0])};  // the exception's last line
 """
 
 # The interact widget that has a slider described `steps`, and the figure it draws.
