@@ -204,8 +204,11 @@ def record(
 ) -> Result:
     """Store ``chapter/key = value`` for ``profile`` (default: ``$MOTIONLAB_PROFILE``); return it.
 
-    Recording a key again replaces it. ``ci`` is a 95% half-width or a ``(low, high)`` interval.
+    Recording a key again replaces it. ``ci`` is a 95% half-width or a ``(low, high)`` interval. The run's precision
+    (``fp32`` | ``bf16``, :mod:`motionlab.precision`) is stored beside the value.
     """
+    from motionlab.precision import network_precision  # imports torch: only when a chapter records
+
     chapter, key = _check_name("chapter", chapter), _check_name("key", key)
     number = _check_number("value", value)
     interval = _check_ci(number, ci)
@@ -219,7 +222,7 @@ def record(
     path = results_dir(profile) / f"{chapter}.json"
     entries = _read(path)
     entries[key] = {"value": number, "ci": list(interval) if interval else None, "unit": unit,
-                    "note": note, "recorded_at": result.recorded_at}
+                    "note": note, "recorded_at": result.recorded_at, "precision": network_precision()}  # fmt: skip
     _write_atomic(path, {"chapter": chapter, "profile": profile, "results": entries})
     return result
 

@@ -230,3 +230,12 @@ def test_bf16_plans_use_the_measured_speedups(monkeypatch):
     monkeypatch.setenv("MOTIONLAB_PRECISION", "bf16")
     jobs = {job.name: job for job in book_jobs("laptop")}
     assert jobs["discord/rvq"].estimate_s == pytest.approx(bf16["discord"])
+
+
+def test_recorded_results_carry_the_precision(isolated_cache, monkeypatch):
+    from motionlab import results
+
+    monkeypatch.setenv("MOTIONLAB_PRECISION", "bf16")
+    results.record("ch", "value", 1.5, profile="smoke")
+    entry = json.loads((results.results_dir("smoke") / "ch.json").read_text())["results"]["value"]
+    assert entry["precision"] == "bf16" and entry["value"] == 1.5
