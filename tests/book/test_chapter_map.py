@@ -57,8 +57,9 @@ def test_recording_training_times_keeps_the_entries_of_cached_models(tmp_path):
     path = tmp_path / "laptop-training.json"
     _record_training(path, [JobResult("data", "trained", 70.0, 65.0), JobResult("evaluator", "trained", 200, 190)])
     _record_training(path, [JobResult("data", "cached"), JobResult("evaluator", "trained", 150.04, 140.06)])
-    assert json.loads(path.read_text()) == {"data": {"seconds": 70.0, "cpu_seconds": 65.0},
-                                            "evaluator": {"seconds": 150.0, "cpu_seconds": 140.1}}  # fmt: skip
+    assert json.loads(path.read_text()) == {"data": {"seconds": 70.0, "cpu_seconds": 65.0, "precision": "fp32"},
+                                            "evaluator": {"seconds": 150.0, "cpu_seconds": 140.1,
+                                                          "precision": "fp32"}}  # fmt: skip
 
 
 def test_train_book_in_the_repository_keeps_its_times_beside_the_build(tmp_path, monkeypatch):
@@ -73,7 +74,8 @@ def test_train_book_in_the_repository_keeps_its_times_beside_the_build(tmp_path,
     monkeypatch.setattr("motionlab.train.plan.run_plan",
                         lambda plan, workers: [JobResult("data", "trained", 80.0, 6.0)])  # fmt: skip
     args = cli.build_parser().parse_args(["train", "book", "--profile", "smoke"])
+    args.settings = cli._settings(args)  # what main() resolves before any command
     assert cli._train_book(args, {}) == 0
     kept = json.loads((tmp_path / "_build" / "executed" / "smoke" / "training.json").read_text())
-    assert kept == {"data": {"seconds": 80.0, "cpu_seconds": 6.0}}
+    assert kept == {"data": {"seconds": 80.0, "cpu_seconds": 6.0, "precision": "fp32"}}
     assert not (tmp_path / "book" / "data").exists()  # only --record writes into the book's sources

@@ -27,7 +27,8 @@ from torch import Tensor
 from motionlab.flow.config import DisCoRDConfig, discord_config
 from motionlab.flow.discord import DisCoRDDecoder, discord_loss_fn
 from motionlab.profiles import get_profile
-from motionlab.train import Trainer, WindowDataset, config_hash, load_result, train_or_load
+from motionlab.train import Trainer, WindowDataset, load_result, train_or_load
+from motionlab.train.cache import artefact_key
 
 MODEL_NAME = "discord"
 Clips = Sequence[np.ndarray]
@@ -172,7 +173,7 @@ def tokenizer_key(tokenizer: Any, data_key: str) -> str:
     config = getattr(tokenizer, "config", None)
     if config is None:
         raise ValueError(f"tokenizer must carry its dataclass .config; got {type(tokenizer).__name__}")
-    return config_hash(config, {"data": data_key})
+    return artefact_key(config, {"data": data_key})
 
 
 def _cache_args(dataset: Any, tokenizer: Any, profile: str | None, config: DisCoRDConfig | None):

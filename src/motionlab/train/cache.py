@@ -150,7 +150,13 @@ def artefact_dir(name: str, config: Any, profile: str | None = None, extra: dict
     """
     if not name or "/" in name or "\\" in name or name.startswith("."):
         raise ValueError(f"name must be a plain folder name, got {name!r}")
-    return cache_path("models", name, get_profile(profile), config_hash(config, _keyed(extra, device, precision)))
+    return cache_path("models", name, get_profile(profile), artefact_key(config, extra, device, precision))
+
+
+def artefact_key(config: Any, extra: dict[str, Any] | None = None, device: str | torch.device | None = None,
+                 precision: str | None = None) -> str:  # fmt: skip
+    """The folder name of a trained model: :func:`config_hash` of its config, ``extra`` and its precision."""
+    return config_hash(config, _keyed(extra, device, precision))
 
 
 def _keyed(extra: dict[str, Any] | None, device: str | torch.device | None, precision: str | None) -> dict[str, Any]:
