@@ -49,6 +49,14 @@ BF16_SPEEDUP: dict[str, float] = {"data": 1.0, "tokenizer": 1.37, "toy_flow": 1.
                                   "t2m": 1.22}  # fmt: skip
 
 
+def job_precision(name: str, run_precision: str) -> str:
+    """The precision the book's model ``name`` trains in when the run's is ``run_precision``: the run's, except for
+    the evaluator, which always trains in fp32."""
+    from .metrics.evaluator_training import EVALUATOR_PRECISION
+
+    return EVALUATOR_PRECISION if name == "evaluator" else run_precision
+
+
 def training_estimates(profile: str, precision: str) -> dict[str, float]:
     """Training CPU seconds per kind of model for ``profile`` trained in ``precision`` (``fp32`` | ``bf16``)."""
     cost = ESTIMATES_S[get_profile(profile)]
@@ -243,4 +251,5 @@ def jobs_for(names: Sequence[str], profile: str | None = None, **kwargs) -> list
 
 
 __all__ = ["BF16_SPEEDUP", "CHAPTER_MODELS", "ESTIMATES_S", "book_dataset", "book_jobs", "chapter_costs",
-           "forget_book_datasets", "is_cached", "jobs_for", "projection_config", "training_estimates"]  # fmt: skip
+           "forget_book_datasets", "is_cached", "job_precision", "jobs_for", "projection_config",
+           "training_estimates"]  # fmt: skip

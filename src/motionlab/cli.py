@@ -135,6 +135,7 @@ def _train_book(args: argparse.Namespace, flow_options: dict) -> int:
 
 def _record_training(path: Path, results) -> None:
     """Merge the times of the models trained now into ``path``; models loaded from the cache keep their entry."""
+    from .book_models import job_precision
     from .precision import network_precision
     from .train.device import get_device
 
@@ -143,7 +144,7 @@ def _record_training(path: Path, results) -> None:
     for r in results:
         if r.status == "trained":
             recorded[r.name] = {"seconds": round(r.seconds, 1), "cpu_seconds": round(r.cpu_seconds, 1),
-                                "precision": precision}  # fmt: skip
+                                "precision": job_precision(r.name, precision)}  # fmt: skip
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(dict(sorted(recorded.items())), indent=1) + "\n")
     print(f"training times recorded in {path}")

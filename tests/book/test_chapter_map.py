@@ -79,3 +79,14 @@ def test_train_book_in_the_repository_keeps_its_times_beside_the_build(tmp_path,
     kept = json.loads((tmp_path / "_build" / "executed" / "smoke" / "training.json").read_text())
     assert kept == {"data": {"seconds": 80.0, "cpu_seconds": 6.0, "precision": "fp32"}}
     assert not (tmp_path / "book" / "data").exists()  # only --record writes into the book's sources
+
+
+def test_recorded_times_name_the_precision_each_model_trained_in(tmp_path, monkeypatch):
+    from motionlab.cli import _record_training
+    from motionlab.train.plan import JobResult
+
+    monkeypatch.setenv("MOTIONLAB_PRECISION", "bf16")
+    path = tmp_path / "training.json"
+    _record_training(path, [JobResult("tokenizer/vq", "trained", 10.0, 9.0), JobResult("evaluator", "trained", 5, 4)])
+    recorded = json.loads(path.read_text())
+    assert recorded["tokenizer/vq"]["precision"] == "bf16" and recorded["evaluator"]["precision"] == "fp32"
