@@ -69,9 +69,4 @@ def apply_settings(settings: RunSettings) -> RunSettings:
     return settings
 
 
-def current_settings() -> RunSettings:
-    """The run's settings as the environment holds them (what :func:`apply_settings` exported, or the defaults)."""
-    return resolve_settings()
-
-
-__all__ = ["RunSettings", "apply_settings", "current_settings", "resolve_settings"]
+__all__ = ["RunSettings", "apply_settings", "resolve_settings"]
