@@ -10,10 +10,12 @@ fractions of the run the EMA weights are scored on the validation split under se
 One process per variant, one torch thread each, so two variants share a 2-core machine fairly::
 
     python experiments/discord_sweep.py --list
-    python experiments/discord_sweep.py v x --budget 600 --out book/data/discord_sweep &
-    python experiments/discord_sweep.py v-feat x-feat --budget 600 --out book/data/discord_sweep &
+    python experiments/discord_sweep.py x-w128 x-w128-lr3e-3 --budget 600 &
+    python experiments/discord_sweep.py x-w128 --budget 2400 --fractions 0.125 0.25 0.5 0.75 1.0 --suffix=-40min &
 
-Every result goes to ``<out>/<variant>.json`` (written atomically); chapter 05 reads the folder.
+Every result goes to ``<out>/<variant>.json`` (written atomically), with the machine, the precision and the dataset
+it was measured on; one folder per version of the embedded data (``book/data/discord_sweep/embedded-v<N>/``),
+which chapter 05 reads.
 """
 
 from __future__ import annotations
@@ -59,6 +61,11 @@ VARIANTS: dict[str, dict] = {
     "v-w64": dict(prediction="v", normalization="std", width=64),
     "x-w64-b16": dict(prediction="x", normalization="std", width=64, batch_size=16),
     "x-w64-lr3e-3": dict(prediction="x", normalization="std", width=64, lr=3e-3),
+    # levers on the laptop decoder itself (x, width 128): smaller batches (more steps), a higher learning rate, a
+    # slower EMA (averages away more of the late steps' weight noise)
+    "x-w128-b16": dict(prediction="x", normalization="std", width=128, batch_size=16),
+    "x-w128-lr3e-3": dict(prediction="x", normalization="std", width=128, lr=3e-3),
+    "x-w128-ema999": dict(prediction="x", normalization="std", width=128, ema_decay=0.999),
 }
 
 # Sampling-time choices, scored on the same weights.
@@ -69,6 +76,10 @@ SAMPLINGS: dict[str, dict] = {
     "T1-dense": dict(temperature=1.0, spacing="data_dense"),
     "T1-final": dict(temperature=1.0, final_prediction=True),  # x only
     "T0.5-final": dict(temperature=0.5, final_prediction=True),  # x only
+    # between zero noise and 0.5, and the cheapest deterministic decode: Euler, 2 steps, from zero noise
+    "T0.25": dict(temperature=0.25),
+    "T0.1": dict(temperature=0.1),
+    "T0-euler2": dict(temperature=0.0, solver="euler", sample_steps=2),
 }
 
 
@@ -100,6 +111,17 @@ def evaluate(decoder, tokenizer, normalized, gt, dataset, evaluator, gt_embeddin
             row["seed_rms"] = float(np.sqrt(np.mean((a - b) ** 2)))
         out[name] = row
     return out
+
+
+def _cpu_model() -> str:
+    """The CPU's model name (``/proc/cpuinfo``), beside every timing: machines of one kind differ."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
 
 
 def run_variant(name: str, args) -> dict:
@@ -139,7 +161,9 @@ def run_variant(name: str, args) -> dict:
     result = {"variant": name, "overrides": VARIANTS[name], "config": config.to_dict(), "budget_s": args.budget,
               "calibrated_s_per_step": per_step, "feed_forward": ff, "ground_truth": truth, "checkpoints": [],
               "clips": len(clips),
-              "machine": {"cpus": os.cpu_count(), "python": platform.python_version(), "torch": torch.__version__},
+              "machine": {"cpus": os.cpu_count(), "python": platform.python_version(), "torch": torch.__version__,
+                          "cpu": _cpu_model()},
+              "precision": trainer.precision,
               "dataset": dataset.key}  # fmt: skip
     train_seconds = 0.0
     for fraction in args.fractions:
@@ -174,7 +198,7 @@ def main(argv=None) -> int:
     parser.add_argument("--fractions", type=float, nargs="+", default=[0.25, 0.5, 1.0])
     parser.add_argument("--seeds", type=int, default=3, help="sampling seeds at the last checkpoint")
     parser.add_argument("--limit", type=int, default=None, help="first N validation clips (default: all)")
-    parser.add_argument("--out", type=Path, default=Path("book/data/discord_sweep"))
+    parser.add_argument("--out", type=Path, default=Path("book/data/discord_sweep/embedded-v3"))
     parser.add_argument("--suffix", default="", help="appended to the result's name, e.g. '-40min' for a longer budget")
     args = parser.parse_args(argv)
     if args.list or not args.variants:

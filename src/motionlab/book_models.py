@@ -7,16 +7,18 @@ everything cached after the plan ran.
 
     data ─┬─ tokenizer/vq ──┬─ t2m/dynamic, t2m/uniform           (chapters 07, 08, 09)
           │                 ├─ t2m/multi-eta0.25                   (chapters 08, 09)
-          │                 ├─ t2m/dynamic-seed1, t2m/uniform-seed1 (chapter 08's training-seed control)
+          │                 ├─ t2m/{dynamic,uniform}-seed{1,2}     (chapter 08's training-seed control)
           │                 └─ discord/vq                          (chapter 09)
-          ├─ tokenizer/rvq ─── discord/rvq, discord/rvq-repeat,
-          │                    discord/rvq-transposed              (chapters 04, 05)
+          ├─ tokenizer/rvq ─┬─ discord/rvq                         (chapter 05)
+          │                 └─ discord/rvq-{stacked,repeat,transposed} (chapter 04)
           └─ evaluator                                             (chapters 05–09)
     toy_flow/ring, toy_flow/ring-conditional                       (chapter 03)
 
-``discord/rvq`` is chapter 05's decoder and chapter 04's ``stacked`` row: one flow decoder per token type,
-shared by the chapters that need it. Chapter 04's other two projections are trained at the same budget: at a
-quarter of it (tried while sizing the build) the decoders were far from converged and the ablation meaningless.
+``discord/rvq`` is chapter 05's decoder, the one DisCoRD's claims are judged on; it gets the profile's whole flow
+budget. Chapter 04's three projections compare with each other, not with the feed-forward decoder, so they share a
+smaller budget (:data:`ABLATION_STEPS`): three models at the full budget would cost more than the rest of the book.
+At a quarter of that ablation budget (tried while sizing the build) the decoders were far from converged and the
+ablation meaningless.
 """
 
 from __future__ import annotations
@@ -32,13 +34,15 @@ from .train.plan import Job
 
 # Training CPU seconds per model on one core of the reference machine (2 cores, two 1-thread workers), from
 # `motionlab train book --record` (book/data/build_times/laptop-training.json; laptop: a tokenizer step 0.25 s x 2,000,
-# a DisCoRD step 0.475 s x 1,150, a diffusion step 0.32 s x 800); they drive the plan line and the progress
-# estimates, nothing else.
+# a DisCoRD step 0.475 s, x 4,000 for chapter 05's decoder and x 1,150 for chapter 04's ablation, a diffusion step
+# 0.32 s x 800); they drive the plan line and the progress estimates, nothing else.
 ESTIMATES_S: dict[str, dict[str, float]] = {
-    "smoke": {"data": 8, "tokenizer": 10, "toy_flow": 5, "evaluator": 10, "discord": 10, "t2m": 15},
-    "laptop": {"data": 90, "tokenizer": 510, "toy_flow": 60, "evaluator": 185, "discord": 560, "t2m": 260},
+    "smoke": {"data": 8, "tokenizer": 10, "toy_flow": 5, "evaluator": 10, "discord": 10, "discord_ablation": 10,
+              "t2m": 15},
+    "laptop": {"data": 90, "tokenizer": 510, "toy_flow": 60, "evaluator": 185, "discord": 1950, "discord_ablation": 560,
+               "t2m": 260},
     "full": {"data": 1500, "tokenizer": 36_000, "toy_flow": 300, "evaluator": 36_000, "discord": 360_000,
-             "t2m": 180_000},
+             "discord_ablation": 360_000, "t2m": 180_000},
 }  # fmt: skip
 
 # A bf16 run's training time is the fp32 estimate over this factor: the CPU-time ratio of whole laptop trainings, fp32
@@ -46,7 +50,7 @@ ESTIMATES_S: dict[str, dict[str, float]] = {
 # same steps timed alone by benchmarks/bench_train.py: tokenizers 1.27-1.39x, DisCoRD 1.34x, diffusion 1.38x). The
 # evaluator always trains in fp32 (motionlab.metrics.evaluator_training.EVALUATOR_PRECISION).
 BF16_SPEEDUP: dict[str, float] = {"data": 1.0, "tokenizer": 1.37, "toy_flow": 1.0, "evaluator": 1.0, "discord": 1.24,
-                                  "t2m": 1.22}  # fmt: skip
+                                  "discord_ablation": 1.24, "t2m": 1.22}  # fmt: skip
 
 
 def job_precision(name: str, run_precision: str) -> str:
@@ -116,25 +120,34 @@ def make_evaluator(profile: str, seed: int, data: str | None = None) -> None:
     load_or_train_evaluator(book_dataset(profile, seed, data), profile)
 
 
-def make_discord(profile: str, seed: int, tokens: str, projection: str = "stacked", data: str | None = None,
+def make_discord(profile: str, seed: int, tokens: str, projection: str | None = None, data: str | None = None,
                  overrides: dict | None = None) -> None:  # fmt: skip
-    from .flow import train_or_load_discord
+    """Train (or find cached) a DisCoRD decoder: the profile's own (``projection=None``, chapters 05 and 09) or one
+    of chapter 04's ablation decoders."""
+    from .flow import discord_config, train_or_load_discord
     from .tokenizers import tokenizer_for_dataset
 
     dataset = book_dataset(profile, seed, data)
     tokenizer = tokenizer_for_dataset(tokens, dataset, profile)
-    config = projection_config(profile, tokenizer, projection, seed, **(overrides or {}))
+    if projection is None:
+        config = discord_config(profile, tokenizer=tokenizer, seed=seed, **(overrides or {}))
+    else:
+        config = projection_config(profile, tokenizer, projection, seed, **(overrides or {}))
     train_or_load_discord(dataset, tokenizer, profile, config=config)
 
 
-def projection_config(profile: str, tokenizer, projection: str = "stacked", seed: int = 0, **overrides):
-    """The DisCoRD config of a condition projection: chapter 05's decoder with only the projection changed.
+# Training steps of chapter 04's projection ablation, where they differ from the profile's DisCoRD decoder.
+ABLATION_STEPS: dict[str, int] = {"laptop": 1150}
 
-    ``stacked`` (the paper's) *is* chapter 05's decoder, so chapter 04's ablation shares it.
-    """
+
+def projection_config(profile: str, tokenizer, projection: str = "stacked", seed: int = 0, **overrides):
+    """The DisCoRD config of chapter 04's ablation: chapter 05's decoder with the projection changed and, in the
+    laptop profile, the smaller ablation budget (:data:`ABLATION_STEPS`, warm-up 5% of it)."""
     from .flow import discord_config
 
-    return discord_config(profile, tokenizer=tokenizer, projection=projection, seed=seed, **overrides)
+    steps = ABLATION_STEPS.get(get_profile(profile))
+    budget = {"train_steps": steps, "warmup_steps": max(1, steps // 20)} if steps else {}
+    return discord_config(profile, tokenizer=tokenizer, projection=projection, seed=seed, **{**budget, **overrides})
 
 
 def make_text_to_motion(profile: str, seed: int, eta: float | None, training_seed: int | None = None,
@@ -188,8 +201,11 @@ def book_jobs(profile: str | None = None, seed: int = 0, *, data: str | None = N
         # chapter 08's training-seed replicates (seed 0 of each arm is the pair above)
         job("t2m/dynamic-seed1", make_text_to_motion, (PAPER_ETA, 1), "t2m", vq),
         job("t2m/uniform-seed1", make_text_to_motion, (0.0, 1), "t2m", vq),
-        job("discord/rvq-repeat", make_discord, ("rvq", "repeat"), "discord", rvq),
-        job("discord/rvq-transposed", make_discord, ("rvq", "transposed"), "discord", rvq),
+        job("t2m/dynamic-seed2", make_text_to_motion, (PAPER_ETA, 2), "t2m", vq),
+        job("t2m/uniform-seed2", make_text_to_motion, (0.0, 2), "t2m", vq),
+        job("discord/rvq-stacked", make_discord, ("rvq", "stacked"), "discord_ablation", rvq),
+        job("discord/rvq-repeat", make_discord, ("rvq", "repeat"), "discord_ablation", rvq),
+        job("discord/rvq-transposed", make_discord, ("rvq", "transposed"), "discord_ablation", rvq),
         *([job(f"t2m/distance-{d}", make_text_to_motion, (None, None), "t2m", vq, distance=d)
            for d in ("l2", "cosine", "cosine_rank")] if profile == "full" else []),  # chapter 08's distance ablation
         job("evaluator", make_evaluator, (), "evaluator", ("data",)),
@@ -204,12 +220,14 @@ CHAPTER_MODELS: dict[str, tuple[str, ...]] = {
     "01_motion_data": ("data",),
     "02_vector_quantization": ("data", "tokenizer/vq", "tokenizer/rvq"),
     "03_rectified_flow": ("toy_flow/ring", "toy_flow/ring-conditional"),
-    "04_condition_projection": ("data", "tokenizer/rvq", "discord/rvq", "discord/rvq-repeat", "discord/rvq-transposed"),
+    "04_condition_projection": ("data", "tokenizer/rvq", "discord/rvq-stacked", "discord/rvq-repeat",
+                                "discord/rvq-transposed"),
     "05_discord": ("data", "tokenizer/rvq", "discord/rvq", "evaluator"),
     "06_sjpe": ("data", "evaluator"),
     "07_discrete_diffusion": ("data", "tokenizer/vq", "t2m/dynamic", "evaluator"),
     "08_dynamic_transitions": ("data", "tokenizer/vq", "t2m/dynamic", "t2m/uniform", "t2m/multi-eta0.25",
-                               "t2m/dynamic-seed1", "t2m/uniform-seed1", "evaluator"),
+                               "t2m/dynamic-seed1", "t2m/uniform-seed1", "t2m/dynamic-seed2", "t2m/uniform-seed2",
+                               "evaluator"),
     "09_two_phase_sampling": ("data", "tokenizer/vq", "t2m/uniform", "t2m/multi-eta0.25", "discord/vq", "evaluator"),
     "98_full_scale": (),
     "99_what_reproduces": (),
@@ -250,6 +268,6 @@ def jobs_for(names: Sequence[str], profile: str | None = None, **kwargs) -> list
     return [job for name, job in jobs.items() if name in needed]
 
 
-__all__ = ["BF16_SPEEDUP", "CHAPTER_MODELS", "ESTIMATES_S", "book_dataset", "book_jobs", "chapter_costs",
-           "forget_book_datasets", "is_cached", "job_precision", "jobs_for", "projection_config",
+__all__ = ["ABLATION_STEPS", "BF16_SPEEDUP", "CHAPTER_MODELS", "ESTIMATES_S", "book_dataset", "book_jobs",
+           "chapter_costs", "forget_book_datasets", "is_cached", "job_precision", "jobs_for", "projection_config",
            "training_estimates"]  # fmt: skip

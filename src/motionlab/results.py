@@ -290,6 +290,9 @@ QUANTITIES: dict[str, tuple[str, str]] = {
     # 04 Condition projection
     "projection/heldout_mse_stacked": ("held-out reconstruction MSE", "stacked projection"),
     "projection/heldout_mse_repeat_linear": ("held-out reconstruction MSE", "repeat & linear"),
+    "projection/heldout_mse_transposed": ("held-out reconstruction MSE", "transposed convolution"),
+    "projection/train_fm_stacked": ("flow-matching loss", "training clips, stacked"),
+    "projection/heldout_fm_stacked": ("flow-matching loss", "held-out clips, stacked"),
     # 05 DisCoRD
     "discord/sjpe_rf": ("sJPE", "flow decoder"),
     "discord/sjpe_ff": ("sJPE", "feed-forward decoder"),
@@ -308,6 +311,23 @@ QUANTITIES: dict[str, tuple[str, str]] = {
     "discord/time_steps2": ("time to decode a batch", "2 steps"),
     "discord/time_steps16": ("time to decode a batch", "16 steps"),
     "discord/time_ff": ("time to decode a batch", "feed-forward decoder"),
+    "discord/noise_sjpe_boundary_share_rf": ("share of Noise sJPE on jerk centred on a token boundary",
+                                             "flow decoder (¼ if the token grid left no trace)"),
+    "discord/noise_sjpe_boundary_share_ff": ("share of Noise sJPE on jerk centred on a token boundary",
+                                             "feed-forward decoder"),
+    "discord/noise_sjpe_excess_at_boundaries": ("share of the flow decoder's extra Noise sJPE",
+                                                "on the ¼ of frames centred on a token boundary"),
+    "discord/joint_jerk_rf": ("mean joint jerk", "flow decoder"),
+    "discord/joint_jerk_ff": ("mean joint jerk", "feed-forward decoder"),
+    "discord/joint_jerk_gt": ("mean joint jerk", "ground truth"),
+    "discord/train_steps": ("training steps", "flow decoder (the paper: 481,896 at batch 768)"),
+    "discord/sjpe_crossing_minutes": ("training minutes at which sJPE falls below the feed-forward decoder's",
+                                      "longest sweep run"),
+    "discord/longest_run_minutes": ("training minutes", "longest sweep run"),
+    "discord/noise_sjpe_steps2": ("Noise sJPE", "2 steps"),
+    "discord/noise_sjpe_steps16": ("Noise sJPE", "16 steps"),
+    "discord/flops_ratio_steps16": ("arithmetic (FLOPs), 16 steps ÷ feed-forward", ""),
+    "discord/time_ratio_steps16": ("CPU time, 16 steps ÷ feed-forward", ""),
     # 06 sJPE
     "sjpe/noise_sjpe_low": ("Noise sJPE", "low noise"),
     "sjpe/noise_sjpe_mid": ("Noise sJPE", "medium noise"),
@@ -349,6 +369,14 @@ QUANTITIES: dict[str, tuple[str, str]] = {
     "tps/fid_ts90": ("individual-motion FID", "T_s = 0.9 T"),
     "tps/fid_ts50": ("individual-motion FID", "T_s = 0.5 T"),
     "tps/fid_handshake": ("individual-motion FID", "Handshake"),
+    "tps/fid_separate": ("individual-motion FID", "actions decoded alone"),
+    "tps/jerk_separate": ("transition Jerk", "actions decoded alone, motions concatenated"),
+    "tps/segment_jerk_tps": ("Jerk inside the actions", "TPS"),
+    "tps/jerk_tps_minus_independent": ("transition Jerk, TPS − independent", "paired per boundary"),
+    "tps/jerk_tps_minus_uniform": ("transition Jerk, TPS dynamic − uniform β", "paired per boundary"),
+    "tps/jerk_concat_minus_inside": ("transition Jerk, real cut − inside the clips it joins", "paired per boundary"),
+    "tps/tokens_changed_ts90": ("tokens the joint phase changes", "T_s = 0.9 T"),
+    "tps/tokens_changed_ts50": ("tokens the joint phase changes", "T_s = 0.5 T"),
 }
 
 
@@ -590,37 +618,70 @@ class Claim:
 # ----------------------------------------------------------------------------------------------
 # The registry. Paper numbers are HumanML3D unless marked; "FF" = the feed-forward VQ decoder.
 
+# Why the laptop flow decoder is rough, as measured: where its extra jerk sits, how far its budget is from a crossing.
+_FLOW_BUDGET = (
+    Evidence("training steps, and the sweep's longest run", ("discord/train_steps", "discord/longest_run_minutes")),
+    Evidence("when sJPE falls below the feed-forward decoder's (measured if inside the run, else extrapolated in "
+             "log-time)", ("discord/sjpe_crossing_minutes",)),
+    Evidence("where the extra jerk sits: share on the ¼ of jerk stencils centred on a token boundary",
+             ("discord/noise_sjpe_boundary_share_rf", "discord/noise_sjpe_boundary_share_ff",
+              "discord/noise_sjpe_excess_at_boundaries")),
+)
+_JOINT_JERK = (
+    Evidence("mean joint jerk (m/s³): flow decoder, feed-forward decoder, ground truth",
+             ("discord/joint_jerk_rf", "discord/joint_jerk_ff", "discord/joint_jerk_gt")),
+)
+_STEPS_NOISE = (
+    Evidence("Noise sJPE, 2 → 16 steps (the jitter an evaluation of the field leaves in each frame)",
+             ("discord/noise_sjpe_steps2", "discord/noise_sjpe_steps16")),
+)
+_CPU_TIME = (
+    Evidence("CPU time vs arithmetic, 16 steps ÷ feed-forward (close when time follows FLOPs, as on a busy CPU; "
+             "on a GPU a small batch is bound by kernel-launch latency instead)",
+             ("discord/time_ratio_steps16", "discord/flops_ratio_steps16")),
+)
+# The multi-motion generator's seams: smoother than the insides of its actions, before TPS does anything.
+_SEAMS = (
+    Evidence("Jerk inside the generated actions vs at their seams (tokens decoded together) vs actions decoded alone",
+             ("tps/segment_jerk_tps", "tps/jerk_tps", "tps/jerk_separate")),
+)
+
 CLAIMS: tuple[Claim, ...] = (
     # --- DisCoRD (Cho et al.) ------------------------------------------------------------------
     Claim("DisCoRD", "Table 1", "Decoding the same tokens with the rectified-flow decoder lowers sJPE.",
           "MoMask 0.512 → 0.385; T2M-GPT 0.564 → 0.488; KIT-ML MoMask 0.384 → 0.359",
-          Less("discord/sjpe_rf", "discord/sjpe_ff")),
+          Less("discord/sjpe_rf", "discord/sjpe_ff"), mechanism=_FLOW_BUDGET),
     Claim("DisCoRD", "Fig. 5, Fig. C", "The flow decoder removes frame-wise noise: Noise sJPE falls.",
-          "shown per sample (jerk plots), no table", Less("discord/noise_sjpe_rf", "discord/noise_sjpe_ff")),
+          "shown per sample (jerk plots), no table", Less("discord/noise_sjpe_rf", "discord/noise_sjpe_ff"),
+          mechanism=_FLOW_BUDGET),
     Claim("DisCoRD", "Fig. 5, Fig. B", "The flow decoder restores dynamism lost to quantization: Static sJPE falls.",
-          "shown per sample (jerk plots), no table", Less("discord/static_sjpe_rf", "discord/static_sjpe_ff")),
+          "shown per sample (jerk plots), no table", Less("discord/static_sjpe_rf", "discord/static_sjpe_ff"),
+          mechanism=_JOINT_JERK),
     Claim("DisCoRD", "Table 1", "Reconstruction FID improves with the flow decoder.",
           "MoMask 0.019 → 0.011; T2M-GPT 0.089 → 0.031; MMM 0.097 → 0.020",
-          Less("discord/fid_rf", "discord/fid_ff")),
+          Less("discord/fid_rf", "discord/fid_ff"), mechanism=_FLOW_BUDGET[:2]),
     Claim("DisCoRD", "Table 1", "Positional accuracy is not what improves: MPJPE gets worse on HumanML3D.",
           "MoMask 29.5 → 33.3 mm; T2M-GPT 60.0 → 71.5 mm (KIT-ML MoMask improves: 37.5 → 33.0)",
-          Greater("discord/mpjpe_rf", "discord/mpjpe_ff")),
+          Greater("discord/mpjpe_rf", "discord/mpjpe_ff"), mechanism=_FLOW_BUDGET[:1] + _JOINT_JERK),
     Claim("DisCoRD", "Table E", "Few steps suffice: FID at 2 steps is close to FID at 16 steps (the paper's steps "
           "are midpoint grid points: 2 = 2 network evaluations, 16 = 30).",
           "FID 0.034 (2 steps) vs 0.032 (16 steps)",
-          Within("discord/fid_steps2", "discord/fid_steps16", 0.25)),
+          Within("discord/fid_steps2", "discord/fid_steps16", 0.25), mechanism=_STEPS_NOISE),
     Claim("DisCoRD", "Fig. 6", "sJPE is more sensitive to the number of steps than FID: fewer steps, higher sJPE.",
           "sJPE rises as steps drop from 16 to 2 while FID barely moves (plot)",
-          Greater("discord/sjpe_steps2", "discord/sjpe_steps16")),
+          Greater("discord/sjpe_steps2", "discord/sjpe_steps16"), mechanism=_STEPS_NOISE),
     Claim("DisCoRD", "Table E", "Decoding time grows with the number of steps (midpoint grid points).",
           "0.016 s (2 steps) → 0.221 s (16) → 1.426 s (100), batch of 32, RTX 4090",
-          Less("discord/time_steps2", "discord/time_steps16")),
+          Less("discord/time_steps2", "discord/time_steps16"), mechanism=_CPU_TIME),
     Claim("DisCoRD", "Table E, Fig. 6", "At 16 steps the flow decoder is about as fast as the feed-forward decoder.",
           "0.221 s vs MoMask 0.244 s on a GPU",
-          Within("discord/time_steps16", "discord/time_ff", 0.5)),
+          Within("discord/time_steps16", "discord/time_ff", 0.5), mechanism=_CPU_TIME),
     Claim("DisCoRD", "Table 6", "Stacked per-frame projection generalises better than Repeat & Linear to tokens "
           "not seen in training.", "generation FID 0.032 vs 0.038 (reconstruction FID 0.011 vs 0.011)",
-          Less("projection/heldout_mse_stacked", "projection/heldout_mse_repeat_linear")),
+          Less("projection/heldout_mse_stacked", "projection/heldout_mse_repeat_linear"),
+          mechanism=(Evidence("no generalisation gap to close at this budget: flow-matching loss on held-out vs "
+                              "training clips", ("projection/heldout_fm_stacked", "projection/train_fm_stacked")),
+                     Evidence("the third projection", ("projection/heldout_mse_transposed",)))),
     Claim("DisCoRD", "Fig. 4", "Frame-wise Gaussian noise shows up as Noise sJPE, not Static sJPE.",
           "Noise sJPE rises steeply with σ; Static sJPE stays low (plot)",
           Greater("sjpe/noise_sjpe_high", "sjpe/static_sjpe_high")),
@@ -628,24 +689,36 @@ CLAIMS: tuple[Claim, ...] = (
           Increasing(("sjpe/noise_sjpe_low", "sjpe/noise_sjpe_mid", "sjpe/noise_sjpe_high"))),
     # --- M2D2M (Chi et al.) --------------------------------------------------------------------
     Claim("M2D2M", "Table 1, Fig. 5", "Concatenating real motions makes a jerky transition.",
-          "Jerk: GT concat 1.371 vs GT single 1.192", Greater("tps/jerk_gt_concat", "tps/jerk_gt_single")),
+          "Jerk: GT concat 1.371 vs GT single 1.192", Greater("tps/jerk_gt_concat", "tps/jerk_gt_single"),
+          mechanism=(Evidence("paired per boundary: the cut against windows inside the two clips it joins",
+                              ("tps/jerk_concat_minus_inside",)),)),
     Claim("M2D2M", "Table 1", "TPS transitions are smoother than concatenated real motions but not over-smoothed.",
           "Jerk: GT single 1.192 < M2D2M 1.238 < GT concat 1.371",
-          Between("tps/jerk_tps", "tps/jerk_gt_single", "tps/jerk_gt_concat")),
+          Between("tps/jerk_tps", "tps/jerk_gt_single", "tps/jerk_gt_concat"), mechanism=_SEAMS),
     Claim("M2D2M", "Supp. Table 5", "Joint denoising steps smooth the transition compared with independent sampling.",
-          "Jerk: w/o TPS 1.402 → T_s = 90: 1.238", Less("tps/jerk_tps", "tps/jerk_independent")),
+          "Jerk: w/o TPS 1.402 → T_s = 90: 1.238", Less("tps/jerk_tps", "tps/jerk_independent"),
+          mechanism=(Evidence("paired per boundary", ("tps/jerk_tps_minus_independent",)),
+                     Evidence("how much the joint phase changes", ("tps/tokens_changed_ts90",)), *_SEAMS)),
     Claim("M2D2M", "Supp. Table 5", "Fidelity trade-off: individual-motion FID rises as T_s shrinks "
           "(keys: T_s = 100%, 90%, 50% of T).", "FID 0.196 (T_s=100) < 0.254 (90) < 0.371 (50), T = 100",
-          Increasing(("tps/fid_ts100", "tps/fid_ts90", "tps/fid_ts50"))),
+          Increasing(("tps/fid_ts100", "tps/fid_ts90", "tps/fid_ts50")),
+          mechanism=(Evidence("how much the joint phase changes",
+                              ("tps/tokens_changed_ts90", "tps/tokens_changed_ts50")),)),
     Claim("M2D2M", "Table 6", "Handshake over-smooths: its transition Jerk falls below real single motions.",
-          "Jerk: Handshake 1.097 vs GT single 1.192", Less("tps/jerk_handshake", "tps/jerk_gt_single")),
+          "Jerk: Handshake 1.097 vs GT single 1.192", Less("tps/jerk_handshake", "tps/jerk_gt_single"),
+          mechanism=_SEAMS),
     Claim("M2D2M", "Table 6", "SLERP over-smooths even more: transition Jerk below real single motions.",
-          "Jerk: SLERP −3.554 vs GT single 1.192", Less("tps/jerk_slerp", "tps/jerk_gt_single")),
+          "Jerk: SLERP −3.554 vs GT single 1.192", Less("tps/jerk_slerp", "tps/jerk_gt_single"), mechanism=_SEAMS),
     Claim("M2D2M", "Table 6", "TPS keeps individual motions more faithful than Handshake.",
           "individual FID: TPS 0.254 vs Handshake 1.279 (SLERP 1.402)",
-          Less("tps/fid_ts90", "tps/fid_handshake")),
+          Less("tps/fid_ts90", "tps/fid_handshake"),
+          mechanism=(Evidence("what the evaluator sees: actions decoded alone (as Handshake's are) vs cut from one "
+                              "decoded sequence (TPS, independent)", ("tps/fid_separate", "tps/fid_ts100")),)),
     Claim("M2D2M", "Table 5", "With TPS, dynamic β(t,d) gives smoother transitions than uniform β_t.",
-          "Jerk 1.238 vs 1.265 (T_s = 90)", Less("tps/jerk_tps", "tps/jerk_tps_uniform")),
+          "Jerk 1.238 vs 1.265 (T_s = 90)", Less("tps/jerk_tps", "tps/jerk_tps_uniform"),
+          mechanism=(Evidence("paired per boundary", ("tps/jerk_tps_minus_uniform",)),
+                     Evidence("largest TV between rows of the dynamic and uniform forward processes (η = 0.25, the "
+                              "multi-motion model's)", ("transitions/max_tv_eta0.25",)))),
     Claim("M2D2M", "Table 3", "Dynamic transition probabilities improve single-motion FID over uniform ones.",
           "FID 0.087 (β(t,d)) vs 0.115 (β_t); KIT-ML 0.378 vs 0.404",
           Less("transitions/fid_dynamic", "transitions/fid_uniform"),

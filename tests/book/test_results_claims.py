@@ -191,8 +191,8 @@ def test_mechanism_rows_show_recorded_numbers_and_never_change_the_verdict(resul
     explained = {c.rule.describe(): c for c in CLAIMS if c.mechanism}
     assert {"diffusion/fid_guided < diffusion/fid_unguided", "transitions/fid_dynamic < transitions/fid_uniform"} \
         <= set(explained)
-    for c in explained.values():
-        assert all(k.split("/")[0] == c.keys[0].split("/")[0] for k in c.mechanism_keys)
+    for c in explained.values():  # a mechanism may read another chapter's keys, each one a reader can name
+        assert all(k.split("/")[0] in results.CHAPTERS and k in results.QUANTITIES for k in c.mechanism_keys)
     table = results.ClaimsTable([row], "smoke")
     assert "Why, as measured" in table._repr_html_() and "h4 1.22" in table.to_markdown()
 

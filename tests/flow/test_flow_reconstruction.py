@@ -100,3 +100,14 @@ def test_input_checks(raw_clips, tokenizer):
     with pytest.raises(ValueError, match="repeats"):
         time_calls(lambda: None, repeats=0)
     assert time_calls(lambda: None, repeats=3).shape == (3,)
+
+
+def test_count_flops_counts_matrix_products_and_convolutions():
+    from motionlab.flow.reconstruction import count_flops
+
+    linear, conv = torch.nn.Linear(10, 20), torch.nn.Conv1d(8, 16, 3, padding=1)
+    assert count_flops(lambda: linear(torch.zeros(3, 10))) == 2 * 3 * 10 * 20
+    assert count_flops(lambda: conv(torch.zeros(2, 8, 32))) == 2 * 2 * 32 * 16 * 8 * 3
+    assert count_flops(lambda: torch.zeros(5).relu()) == 0  # element-wise work is not counted
+    twice = count_flops(lambda: (linear(torch.zeros(3, 10)), linear(torch.zeros(3, 10))))
+    assert twice == 2 * count_flops(lambda: linear(torch.zeros(3, 10)))

@@ -176,3 +176,27 @@ def test_sjpe_variants_score_each_variant_as_sjpe_dataset_does():
         np.testing.assert_array_equal(both[variant].static_per_clip, alone.static_per_clip)
     with pytest.raises(ValueError, match="variants"):
         sjpe_variants(pred, gt, variants=("element", "mean"))
+
+
+def test_noise_sjpe_by_phase_sums_to_noise_and_finds_a_token_grid():
+    from motionlab.metrics import noise_sjpe_by_phase
+
+    rng = np.random.default_rng(3)
+    gt = [wiggly(rng, n) for n in (37, 52, 64)]
+    # Jitter that ignores the tokens spreads over the phases; a step at every 4th frame (a blocky decoder) piles
+    # the added jerk on the stencils centred on those boundaries (phase 0).
+    smooth_noise = [g + 0.002 * rng.standard_normal(g.shape) for g in gt]
+    blocky = [g + 0.01 * (np.arange(len(g)) // 4 % 2)[:, None, None] for g in gt]
+    for pred in (smooth_noise, blocky):
+        parts = noise_sjpe_by_phase(pred, gt, 4)
+        assert parts.shape == (4,) and (parts >= 0).all()
+        assert parts.sum() == pytest.approx(sjpe_dataset(pred, gt).noise, rel=1e-12)
+    spread, piled = noise_sjpe_by_phase(smooth_noise, gt, 4), noise_sjpe_by_phase(blocky, gt, 4)
+    assert spread.max() / spread.sum() < 0.35
+    assert piled.argmax() == 0 and piled[0] / piled.sum() > 0.4
+    assert piled[2] < 1e-9 * piled.sum()  # stencils inside one token (frames 4n .. 4n+3) see no step at all
+    assert noise_sjpe_by_phase(gt, gt, 4).sum() == 0.0
+    with pytest.raises(ValueError, match="period"):
+        noise_sjpe_by_phase(gt, gt, 0)
+    with pytest.raises(ValueError, match="same number"):
+        noise_sjpe_by_phase(gt, gt[:2], 4)

@@ -7,7 +7,7 @@ import pytest
 
 from motionlab.data import Caption, MotionClip
 from motionlab.data.embedded import generate_clip
-from motionlab.metrics import mean_ci, transition_log_jerk
+from motionlab.metrics import log_jerk_batch, mean_ci, transition_log_jerk
 from motionlab.multimotion import (
     METRICS,
     MultiActionInstance,
@@ -16,6 +16,7 @@ from motionlab.multimotion import (
     evaluate_multimotion,
     format_table,
     ground_truth_concat_jerk,
+    ground_truth_jerks,
     summarize,
     transition_feature_windows,
     transition_jerk,
@@ -143,3 +144,28 @@ def test_summary_and_table():
     assert lines[3] == "| GT (concat) | - | 1.370 ± 0.004 |"
     with pytest.raises(ValueError, match="empty"):
         summarize([])
+
+
+def test_ground_truth_jerks_are_samples_of_the_two_table_rows(setup):
+    _, instances, _, _ = setup
+    single, concat, paired = ground_truth_jerks(instances, rng=0, windows_per_segment=3)
+    segments = [s for inst in instances for s in inst.real_segments]
+    assert single.shape == (3 * sum(len(s) >= 40 for s in segments),)
+    assert concat.shape == paired.shape == (sum(len(inst.lengths) - 1 for inst in instances),)
+    assert np.nanmean(concat) == pytest.approx(ground_truth_concat_jerk(instances))
+    np.testing.assert_array_equal(single, ground_truth_jerks(instances, rng=0, windows_per_segment=3).single)  # seeded
+    # the first sample is Eq. 10 of a window drawn from the first segment with the same generator
+    rng = np.random.default_rng(0)
+    first = next(s for s in segments if len(s) >= 40)
+    start = int(rng.integers(len(first) - 40 + 1))
+    window = recover_from_ric(np.asarray(first[start : start + 40], np.float32))
+    assert single[0] == pytest.approx(float(log_jerk_batch(window[None])[0]))
+    # each cut is paired with the mean inside-window Jerk of the two clips it joins
+    inside = single.reshape(-1, 3).mean(1)  # every segment here is long enough: one row per segment, in order
+    n = len(instances[0].lengths)
+    assert paired[0] == pytest.approx(concat[0] - (inside[0] + inside[1]) / 2)
+    assert paired[n - 1] == pytest.approx(concat[n - 1] - (inside[n] + inside[n + 1]) / 2)  # second instance
+    with pytest.raises(ValueError, match="windows_per_segment"):
+        ground_truth_jerks(instances, rng=0, windows_per_segment=0)
+    with pytest.raises(ValueError, match="frames a window needs"):
+        ground_truth_jerks(instances, 10_000, rng=0)

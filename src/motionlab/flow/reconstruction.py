@@ -173,8 +173,22 @@ def time_calls(fn: Callable[[], Any], repeats: int = 5, warmup: int = 1) -> np.n
     return np.array(seconds)
 
 
+def count_flops(fn: Callable[[], Any]) -> int:
+    """Floating-point operations of one call of ``fn()`` (matrix products and convolutions, as PyTorch's
+    ``FlopCounterMode`` counts them; element-wise work is left out). Time on a busy CPU follows this number; on a
+    GPU, small decoders are bound by kernel-launch latency instead, so two decoders with very different FLOPs can
+    take about the same time there."""
+    from torch.utils.flop_counter import FlopCounterMode
+
+    counter = FlopCounterMode(display=False)
+    with counter, torch.no_grad():
+        fn()
+    return int(counter.get_total_flops())
+
+
 __all__ = [
     "ReconstructionScores",
+    "count_flops",
     "decode_clips",
     "joints_of",
     "length_batches",

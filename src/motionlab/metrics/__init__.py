@@ -34,6 +34,7 @@ from .retrieval import RetrievalScores, euclidean_distance_matrix, mm_dist, r_pr
 from .sjpe import (
     SJPE_JOINTS,
     SJPEResult,
+    noise_sjpe_by_phase,
     sjpe,
     sjpe_dataset,
     sjpe_from_features,
@@ -61,7 +62,7 @@ __all__ = [
     "dimensionless_jerk", "diversity", "euclidean_distance_matrix", "fid", "finite_difference_jerk",
     "frechet_distance", "gaussian_stats", "init_weights", "ldlj_from_log_jerk", "load_official_evaluator",
     "log_dimensionless_jerk", "log_jerk", "log_jerk_batch", "mean_ci", "mm_dist", "mpjpe", "multimodality",
-    "official_paths", "pad_caption", "pos_category", "r_precision", "retrieval_metrics", "sjpe",
+    "noise_sjpe_by_phase", "official_paths", "pad_caption", "pos_category", "r_precision", "retrieval_metrics", "sjpe",
     "sjpe_dataset", "sjpe_from_features", "sjpe_jerk_magnitudes", "sjpe_setting", "sjpe_variants", "summarize_runs",
     "transition_log_jerk", "transition_windows",
 ]  # fmt: skip

@@ -254,6 +254,37 @@ def sjpe_jerk_magnitudes(clips, skeleton: str = "t2m") -> np.ndarray:
     return _jerk_magnitudes(_select(joints.positions, setting), joints.lengths, setting.fps)[0]
 
 
+def noise_sjpe_by_phase(pred_clips, gt_clips, period: int, skeleton: str = "t2m") -> np.ndarray:
+    """Noise sJPE (element variant) split by where each jerk stencil sits within a token: ``(period,)``.
+
+    A jerk row ``t`` reads frames ``t .. t+3``; its *phase* is ``(t + 2) mod period``, so phase 0 holds the
+    stencils centred on a token boundary (frames ``qn - 1 | qn``) for tokens of ``period`` frames that start at
+    frame 0. Each entry is that phase's share of every clip's Noise sJPE, averaged over clips, so the entries
+    sum to :func:`sjpe_dataset`'s ``noise``. A decoder whose added jerk ignores the tokens puts ``1/period`` of
+    it in each phase; one that leaks the token grid (a blocky condition) piles it into phase 0.
+    Clips are lists of ``(T_i, J, 3)`` joints (all joints) or :class:`ClipJoints`, pair ``i`` of equal length.
+    """
+    if isinstance(period, bool) or not isinstance(period, int) or period < 1:
+        raise ValueError(f"period must be a positive int (frames per token), got {period!r}")
+    setting = sjpe_setting(skeleton)
+    pred = _clip_joints(pred_clips, None, "pred_clips", setting)
+    gt = _clip_joints(gt_clips, None, "gt_clips", setting)
+    if len(pred) != len(gt) or (pred.lengths != gt.lengths).any():
+        raise ValueError("pred_clips and gt_clips must hold the same number of clips, pair by pair of equal length")
+    jp, clip_id = _jerk_magnitudes(_select(pred.positions, setting), pred.lengths, setting.fps)
+    jg, _ = _jerk_magnitudes(_select(gt.positions, setting), gt.lengths, setting.fps)
+    rows_per_clip = pred.lengths - 3
+    row_in_clip = np.arange(len(clip_id)) - np.repeat(np.cumsum(rows_per_clip) - rows_per_clip, rows_per_clip)
+    phase = (row_in_clip + 2) % period
+    noise = _row_sums(np.maximum(jp - jg, 0.0) / (jp + jg + EPS))  # (R,): summed over the selected joints
+    n_clips = len(pred)
+    out = np.zeros(period)
+    for p in range(period):
+        per_clip = np.bincount(clip_id, weights=noise * (phase == p), minlength=n_clips) / rows_per_clip
+        out[p] = per_clip.mean()
+    return out
+
+
 def sjpe(pred_joints, gt_joints, skeleton: str = "t2m", variant: str = "element") -> dict[str, float]:
     """sJPE of ONE clip: ``{"sjpe", "noise", "static"}`` with ``sjpe = noise + static``.
 

@@ -8,6 +8,7 @@ motions out, for a trained ``TextToMotion``), :mod:`.testset` and :mod:`.evaluat
 from .baselines import DEFAULT_TRANSITION, handshake_sample, handshake_windows, independent_sample, shortened_lengths
 from .evaluation import (
     METRICS,
+    GroundTruthJerks,
     MultiMotionReference,
     build_reference,
     evaluate_ground_truth_single,
@@ -15,6 +16,7 @@ from .evaluation import (
     evaluate_multimotion,
     format_table,
     ground_truth_concat_jerk,
+    ground_truth_jerks,
     real_windows,
     segment_jerk,
     summarize,
@@ -45,7 +47,8 @@ __all__ = [
     "MultiActionInstance", "MultiMotion", "MultiMotionGenerator", "MultiMotionReference", "MultiMotionTokens",
     "PoolClip", "SegmentLayout", "blend_segments", "blend_weights", "build_multi_action_testset",
     "build_reference", "concatenate_segments", "evaluate_ground_truth_single", "evaluate_methods",
-    "evaluate_multimotion", "format_table", "ground_truth_concat_jerk", "handshake_sample", "handshake_windows",
+    "evaluate_multimotion", "format_table", "GroundTruthJerks", "ground_truth_concat_jerk", "ground_truth_jerks",
+    "handshake_sample", "handshake_windows",
     "independent_sample", "joint_condition", "phase_grid", "real_windows", "segment_jerk", "segment_layout",
     "shortened_lengths", "single_action_pool", "split_segments", "summarize", "text_tensors",
     "transition_feature_windows", "transition_jerk", "transition_profile", "transition_rows",

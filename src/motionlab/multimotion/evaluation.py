@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -197,6 +198,50 @@ def ground_truth_concat_jerk(instances: Sequence, window: int = DEFAULT_WINDOW) 
     if not values:
         raise ValueError("no instance has a boundary (all have one action)")
     return float(np.nanmean(np.concatenate(values)))
+
+
+class GroundTruthJerks(NamedTuple):
+    """Samples of M2D2M Table 1's two ground-truth Jerks, and the cut judged against the clips it joins."""
+
+    single: np.ndarray  # (n_windows,): random windows inside the real segments
+    concat: np.ndarray  # (n_boundaries,): at each cut between real clips played back to back
+    cut_minus_inside: np.ndarray  # (n_boundaries,): each cut − the mean inside-window Jerk of its two clips
+
+
+def ground_truth_jerks(instances: Sequence, window: int = DEFAULT_WINDOW, *, rng,
+                       windows_per_segment: int = 8) -> GroundTruthJerks:  # fmt: skip
+    """The two ground-truth Jerks of M2D2M Table 1 as samples, for intervals (see :class:`GroundTruthJerks`).
+
+    ``single``: Eq. 10 on ``windows_per_segment`` random windows inside every real action segment of the instances
+    (segments shorter than ``window`` are skipped). ``concat``: Eq. 10 at every boundary of each instance's real
+    clips played back to back. ``cut_minus_inside`` pairs each cut with the clips on its two sides (NaN where one
+    is too short), so clip-to-clip differences in roughness cancel. Real data costs nothing to score: pass every
+    instance of the test set, and the means carry intervals over hundreds of samples.
+    """
+    if isinstance(windows_per_segment, bool) or not isinstance(windows_per_segment, int) or windows_per_segment < 1:
+        raise ValueError(f"windows_per_segment must be a positive int, got {windows_per_segment!r}")
+    rng = _rng(rng)
+    single, concat, paired = [], [], []
+    for inst in instances:
+        inside = []  # per segment: Eq. 10 of its windows, (windows_per_segment,), or None when too short
+        for segment in inst.real_segments:
+            segment = np.asarray(segment)
+            if len(segment) < window:
+                inside.append(None)
+                continue
+            windows = real_windows([segment] * windows_per_segment, window, rng)
+            inside.append(log_jerk_batch(recover_from_ric(np.stack(windows).astype(np.float32))))
+            single.append(inside[-1])
+        if len(inst.lengths) > 1:
+            cuts = transition_jerk(*inst.real_concat(), window)  # (n_actions - 1,)
+            concat.append(cuts)
+            paired += [cut - (np.nanmean(a) + np.nanmean(b)) / 2 if a is not None and b is not None else np.nan
+                       for cut, a, b in zip(cuts, inside[:-1], inside[1:], strict=True)]  # fmt: skip
+    if not single:
+        raise ValueError(f"no real segment has the {window} frames a window needs")
+    if not concat:
+        raise ValueError("no instance has a boundary (all have one action)")
+    return GroundTruthJerks(np.concatenate(single), np.concatenate(concat), np.asarray(paired, dtype=np.float64))
 
 
 def segment_jerk(motions: Sequence, window: int = DEFAULT_WINDOW, *, rng) -> np.ndarray:
