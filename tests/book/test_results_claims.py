@@ -120,6 +120,15 @@ def test_overlapping_intervals_are_inconclusive_but_a_clear_failure_is_not():
     assert Between("b", "a", "far").judge(rec) == INCONCLUSIVE  # low side overlaps, high side is clear
 
 
+def test_a_difference_is_judged_by_its_own_interval_not_by_overlapping_intervals():
+    # 1.0 ± 0.1 and 1.16 ± 0.1 overlap (1.1 > 1.06), yet the difference 0.16 exceeds sqrt(0.1² + 0.1²) = 0.141
+    rec = {"a": r(1.0, (0.9, 1.1)), "c": r(1.16, (1.06, 1.26)), "d": r(1.14, (1.04, 1.24)), "pt": r(1.19)}
+    assert Less("a", "c").judge(rec) == HOLDS and Greater("a", "c").judge(rec) == FAILS
+    assert Less("a", "d").judge(rec) == INCONCLUSIVE  # 0.14 < 0.141
+    assert Less("a", "pt").judge(rec) == HOLDS  # against a point, a's own half-width alone: 0.19 > 0.1
+    assert Less("a", "c").judge({"a": r(1.0, (0.95, 1.2)), "c": rec["c"]}) == INCONCLUSIVE  # the wider side counts
+
+
 def test_missing_keys_give_a_row_not_a_gap():
     claim = Claim("P", "Table 1", "x is small", "1 vs 2", Less("c/x", "c/y"))
     row = results.judge(claim, {"c/x": r(1.0, key="x")})
