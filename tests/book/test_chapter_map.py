@@ -90,3 +90,21 @@ def test_recorded_times_name_the_precision_each_model_trained_in(tmp_path, monke
     _record_training(path, [JobResult("tokenizer/vq", "trained", 10.0, 9.0), JobResult("evaluator", "trained", 5, 4)])
     recorded = json.loads(path.read_text())
     assert recorded["tokenizer/vq"]["precision"] == "bf16" and recorded["evaluator"]["precision"] == "fp32"
+
+
+def test_chapter_04s_ablation_has_its_own_budget_where_the_profile_says_so():
+    from motionlab.book_models import ABLATION_STEPS, projection_config
+    from motionlab.flow import discord_config
+
+    for profile in ("smoke", "laptop", "full"):
+        own = discord_config(profile)
+        ablation = {kind: projection_config(profile, None, kind) for kind in ("stacked", "repeat", "transposed")}
+        steps = ABLATION_STEPS.get(profile, own.train_steps)
+        assert {c.train_steps for c in ablation.values()} == {steps}
+        assert {c.projection for c in ablation.values()} == {"stacked", "repeat", "transposed"}
+        # apart from the projection and the budget, the ablation is chapter 05's decoder
+        same = {k: v for k, v in own.to_dict().items() if k not in ("projection", "train_steps", "warmup_steps")}
+        assert all({k: v for k, v in c.to_dict().items() if k in same} == same for c in ablation.values())
+        # the stacked ablation decoder is chapter 05's own exactly where the budgets agree
+        assert (ablation["stacked"] == own) == (steps == own.train_steps)
+    assert ABLATION_STEPS["laptop"] < discord_config("laptop").train_steps
