@@ -16,7 +16,8 @@ everything cached after the plan ran.
 
 ``discord/rvq`` is chapter 05's decoder, the one DisCoRD's claims are judged on; it gets the profile's whole flow
 budget. Chapter 04's three projections compare with each other, not with the feed-forward decoder, so they share a
-smaller budget (:data:`ABLATION_STEPS`): three models at the full budget would cost more than the rest of the book.
+smaller budget (:data:`ABLATION_STEPS`): at the full budget the three would add more than half to the book's
+training time.
 At a quarter of that ablation budget (tried while sizing the build) the decoders were far from converged and the
 ablation meaningless.
 """

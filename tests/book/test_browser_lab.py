@@ -177,8 +177,19 @@ def run_all(driver, url: str) -> dict:
     driver.get(url)
     wait_for(driver, STATE_JS, lambda s: s is not None and s["kernel"] == "idle", 180, "the notebook and its kernel")
     start = time.monotonic()
-    driver.execute_script("window.jupyterapp.commands.execute('notebook:run-all-cells');")
-    time.sleep(2)
+    # A run-all sent while the notebook panel is still settling can be dropped (seen once from a fresh clone: the kernel
+    # idle, no cell ever queued): send it again until some cell has started.
+    for _ in range(4):
+        driver.execute_script("window.jupyterapp.commands.execute('notebook:run-all-cells');")
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline:
+            s = driver.execute_script(STATE_JS)
+            if s is not None and (s["errors"] or s["run"] or s["busy"]):
+                break
+            time.sleep(1)
+        else:
+            continue
+        break
     state = wait_for(driver, STATE_JS,
                      lambda s: s["errors"] or (s["kernel"] == "idle" and s["busy"] == 0 and s["run"] == s["cells"]),
                      RUN_TIMEOUT, "every cell to run")
