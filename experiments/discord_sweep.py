@@ -39,6 +39,7 @@ from motionlab.flow.reconstruction import decode_clips, reconstruction_scores
 from motionlab.flow.training import flow_validation, token_window_batches
 from motionlab.io.common import write_text_atomic
 from motionlab.metrics.evaluator_training import load_or_train_evaluator
+from motionlab.precision import read_cpu_info
 from motionlab.tokenizers import tokenizer_for_dataset
 from motionlab.train import Trainer, WindowDataset
 
@@ -113,17 +114,6 @@ def evaluate(decoder, tokenizer, normalized, gt, dataset, evaluator, gt_embeddin
     return out
 
 
-def _cpu_model() -> str:
-    """The CPU's model name (``/proc/cpuinfo``), beside every timing: machines of one kind differ."""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
-
-
 def run_variant(name: str, args) -> dict:
     torch.set_num_threads(1)
     dataset = load_dataset(profile=args.profile)
@@ -162,7 +152,7 @@ def run_variant(name: str, args) -> dict:
               "calibrated_s_per_step": per_step, "feed_forward": ff, "ground_truth": truth, "checkpoints": [],
               "clips": len(clips),
               "machine": {"cpus": os.cpu_count(), "python": platform.python_version(), "torch": torch.__version__,
-                          "cpu": _cpu_model()},
+                          "cpu": read_cpu_info().model or platform.processor() or "unknown"},
               "precision": trainer.precision,
               "dataset": dataset.key}  # fmt: skip
     train_seconds = 0.0

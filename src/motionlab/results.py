@@ -444,11 +444,15 @@ def _compare(a: Result, b: Result, holds: bool) -> str:
     widths the overlap test works at about the 99.5% level, not 95%). Where both were measured on the same samples,
     a paired difference recorded beside them (a mechanism row) is sharper still.
     """
-    if not (a.ci or b.ci):
-        return HOLDS if holds else FAILS
-    if abs(a.value - b.value) <= math.hypot(_half_width(a), _half_width(b)):
+    if (a.ci or b.ci) and not clearly_apart(a.value, _half_width(a), b.value, _half_width(b)):
         return INCONCLUSIVE
     return HOLDS if holds else FAILS
+
+
+def clearly_apart(a: float, half_a: float, b: float, half_b: float) -> bool:
+    """Whether two independent estimates (mean, 95% half-width) differ beyond the 95% interval of their
+    difference, half-width ``sqrt(half_a² + half_b²)``: the test the claims table judges orderings with."""
+    return abs(a - b) > math.hypot(half_a, half_b)
 
 
 def _combine(verdicts: Sequence[str]) -> str:

@@ -127,6 +127,7 @@ def test_a_difference_is_judged_by_its_own_interval_not_by_overlapping_intervals
     assert Less("a", "d").judge(rec) == INCONCLUSIVE  # 0.14 < 0.141
     assert Less("a", "pt").judge(rec) == HOLDS  # against a point, a's own half-width alone: 0.19 > 0.1
     assert Less("a", "c").judge({"a": r(1.0, (0.95, 1.2)), "c": rec["c"]}) == INCONCLUSIVE  # the wider side counts
+    assert results.clearly_apart(1.0, 0.1, 1.16, 0.1) and not results.clearly_apart(1.0, 0.1, 1.14, 0.1)
 
 
 def test_missing_keys_give_a_row_not_a_gap():
