@@ -44,8 +44,11 @@ class Timing:
     cpu: np.ndarray
 
     def summary(self) -> dict[str, float]:
-        return {f"{kind}_{stat}": float(fn(getattr(self, kind))) for kind in ("wall", "cpu")
-                for stat, fn in (("median", np.median), ("min", np.min), ("max", np.max))}  # fmt: skip
+        return {
+            f"{kind}_{stat}": float(fn(getattr(self, kind)))
+            for kind in ("wall", "cpu")
+            for stat, fn in (("median", np.median), ("min", np.min), ("max", np.max))
+        }
 
 
 def interleaved(variants: Mapping[str, Callable[[], object]], repeats: int, warmup: int = 1) -> dict[str, Timing]:

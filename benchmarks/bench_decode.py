@@ -94,12 +94,25 @@ def run(batch_sizes: list[int], repeats: int, steps: list[int], seed: int) -> di
         base = timing[("feed-forward", "-", 0)]
         for (decoder, solver, steps_), t in timing.items():
             nfe = 1 if decoder == "feed-forward" else n_evaluations(steps_, solver)
-            clip_macs = macs["feed_forward"] if decoder == "feed-forward" else (
-                macs["projection"] + nfe * macs["unet_evaluation"])  # fmt: skip
+            clip_macs = (
+                macs["feed_forward"]
+                if decoder == "feed-forward"
+                else (macs["projection"] + nfe * macs["unet_evaluation"])
+            )
             per_clip = {k: v / batch for k, v in t.summary().items()}
-            rows.append(dict(decoder=decoder, solver=solver, steps=steps_, evaluations=nfe, batch=batch,
-                             seconds_per_clip=per_clip, ratio=ratio(t, base), gmac_per_clip=clip_macs / 1e9,
-                             ratio_macs=clip_macs / macs["feed_forward"]))  # fmt: skip
+            rows.append(
+                dict(
+                    decoder=decoder,
+                    solver=solver,
+                    steps=steps_,
+                    evaluations=nfe,
+                    batch=batch,
+                    seconds_per_clip=per_clip,
+                    ratio=ratio(t, base),
+                    gmac_per_clip=clip_macs / 1e9,
+                    ratio_macs=clip_macs / macs["feed_forward"],
+                )
+            )
     return {
         "frames": FRAMES,
         "repeats": repeats,
@@ -114,11 +127,14 @@ def run(batch_sizes: list[int], repeats: int, steps: list[int], seed: int) -> di
         "feed_forward_network": "motionlab.tokenizers.encdec.Decoder(width=512, depth=3, code_dim=512)",
         "rows": rows,
         "ratio_2_euler": {
-            str(r["batch"]): {"wall": r["ratio"]["wall_median"], "cpu": r["ratio"]["cpu_median"],
-                              "macs": r["ratio_macs"]}
+            str(r["batch"]): {
+                "wall": r["ratio"]["wall_median"],
+                "cpu": r["ratio"]["cpu_median"],
+                "macs": r["ratio_macs"],
+            }
             for r in rows
             if r["solver"] == "euler" and r["steps"] == 2
-        },  # fmt: skip
+        },
     }
 
 

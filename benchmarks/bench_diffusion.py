@@ -62,8 +62,16 @@ def main() -> None:
     lengths = [args.tokens] * args.batch
 
     def run(steps: int):
-        out = sample(model, transitions, text, lengths=lengths, generator=torch.Generator().manual_seed(2),
-                     num_steps=steps, guidance_scale=args.guidance, top_p=0.85)  # fmt: skip
+        out = sample(
+            model,
+            transitions,
+            text,
+            lengths=lengths,
+            generator=torch.Generator().manual_seed(2),
+            num_steps=steps,
+            guidance_scale=args.guidance,
+            top_p=0.85,
+        )
         if dev.type == "cuda":
             torch.cuda.synchronize()
         return out
@@ -76,31 +84,56 @@ def main() -> None:
     calls = {steps: (lambda s=steps: run(s)) for steps in args.steps}
     timing = interleaved(calls, args.repeats, warmup=0)  # the first calls above were the warm-up
     base = timing[args.steps[0]]
-    rows = [dict(steps=steps, first_call_s=first[steps], ms_per_step=1e3 * float(np.median(t.wall)) / steps,
-                 speedup_vs_first=ratio(base, t), **t.summary())
-            for steps, t in timing.items()]  # fmt: skip
+    rows = [
+        dict(
+            steps=steps,
+            first_call_s=first[steps],
+            ms_per_step=1e3 * float(np.median(t.wall)) / steps,
+            speedup_vs_first=ratio(base, t),
+            **t.summary(),
+        )
+        for steps, t in timing.items()
+    ]
 
     cache_bytes = sum(m.numel() * m.element_size() for m in transitions._intervals.values())
     result = dict(
         device=str(dev) if dev.type != "cuda" else torch.cuda.get_device_name(dev),
-        machine=platform.processor() or platform.machine(), threads=torch.get_num_threads(), torch=torch.__version__,
-        codes=K, timesteps=T, batch=args.batch, tokens=args.tokens, guidance=args.guidance,
-        model_params=model.num_params, model=dict(n_layers=cfg.n_layers, d_model=cfg.d_model, n_heads=cfg.n_heads),
-        transitions=dict(build_s=build_s, dense_bytes=dense_bytes, dense_mb=dense_bytes / 2**20,
-                         jump_cache_bytes=cache_bytes, jump_cache_mb=cache_bytes / 2**20),
+        machine=platform.processor() or platform.machine(),
+        threads=torch.get_num_threads(),
+        torch=torch.__version__,
+        codes=K,
+        timesteps=T,
+        batch=args.batch,
+        tokens=args.tokens,
+        guidance=args.guidance,
+        model_params=model.num_params,
+        model=dict(n_layers=cfg.n_layers, d_model=cfg.d_model, n_heads=cfg.n_heads),
+        transitions=dict(
+            build_s=build_s,
+            dense_bytes=dense_bytes,
+            dense_mb=dense_bytes / 2**20,
+            jump_cache_bytes=cache_bytes,
+            jump_cache_mb=cache_bytes / 2**20,
+        ),
         sampling=rows,
-    )  # fmt: skip
+    )
 
-    print(f"dense Q_t + Q̄_t (K={K}, T={T}, float32): {dense_bytes / 2**20:.1f} MiB, built in {build_s:.2f} s; "
-          f"jump cache {cache_bytes / 2**20:.1f} MiB")  # fmt: skip
-    print(f"laptop denoiser: {model.num_params / 1e6:.2f} M params; batch {args.batch} x {args.tokens} tokens, "
-          f"guidance s={args.guidance} on {result['device']} ({result['threads']} threads)")  # fmt: skip
+    print(
+        f"dense Q_t + Q̄_t (K={K}, T={T}, float32): {dense_bytes / 2**20:.1f} MiB, built in {build_s:.2f} s; "
+        f"jump cache {cache_bytes / 2**20:.1f} MiB"
+    )
+    print(
+        f"laptop denoiser: {model.num_params / 1e6:.2f} M params; batch {args.batch} x {args.tokens} tokens, "
+        f"guidance s={args.guidance} on {result['device']} ({result['threads']} threads)"
+    )
     print(f"{args.repeats} interleaved rounds, median (min–max)")
     print(f"{'steps':>6} {'wall s':>22} {'cpu s':>22} {'ms/step':>9} {'1st call s':>11} {'× faster (cpu)':>22}")
     for r in rows:
         t = timing[r["steps"]]
-        print(f"{r['steps']:>6} {spread(t.wall, digits=2):>22} {spread(t.cpu, digits=2):>22} {r['ms_per_step']:>9.1f}"
-              f" {r['first_call_s']:>11.2f} {ratio_text(r['speedup_vs_first']):>22}")  # fmt: skip
+        print(
+            f"{r['steps']:>6} {spread(t.wall, digits=2):>22} {spread(t.cpu, digits=2):>22} {r['ms_per_step']:>9.1f}"
+            f" {r['first_call_s']:>11.2f} {ratio_text(r['speedup_vs_first']):>22}"
+        )
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(result, indent=2))
     print(f"wrote {args.out}")

@@ -62,12 +62,18 @@ def _round(command: list[str], threads: int) -> dict[str, float]:
     """One fresh process: its wall and CPU time and the model time it measured."""
     with tempfile.TemporaryDirectory() as tmp:
         report = Path(tmp) / "times.json"
-        env = {**os.environ, "MOTIONLAB_NO_TRAIN": "1", "OMP_NUM_THREADS": str(threads),
-               "OPENBLAS_NUM_THREADS": str(threads), "MKL_NUM_THREADS": str(threads)}  # fmt: skip
+        env = {
+            **os.environ,
+            "MOTIONLAB_NO_TRAIN": "1",
+            "OMP_NUM_THREADS": str(threads),
+            "OPENBLAS_NUM_THREADS": str(threads),
+            "MKL_NUM_THREADS": str(threads),
+        }
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         wall = time.perf_counter()
-        done = subprocess.run([sys.executable, __file__, "--child", str(report), "--", *command], env=env,
-                              capture_output=True, text=True)  # fmt: skip
+        done = subprocess.run(
+            [sys.executable, __file__, "--child", str(report), "--", *command], env=env, capture_output=True, text=True
+        )
         wall = time.perf_counter() - wall
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         if done.returncode != 0 or not report.is_file():
@@ -101,10 +107,14 @@ def main() -> None:
     print(f"motionlab {' '.join(command)}: {args.repeats} rounds, each a fresh process; median (min–max)")
     print("| | wall (s) | CPU (s) |\n|---|---:|---:|")
     print(f"| whole command | {spread(col['wall'], digits=1)} | {spread(col['cpu'], digits=1)} |")
-    print(f"| model calls ({int(np.median(col['model_calls']))} outermost) | {spread(col['model_wall'], digits=1)} | "
-          f"{spread(col['model_cpu'], digits=1)} |")
-    print(f"| everything else | {spread(col['wall'] - col['model_wall'], digits=1)} | "
-          f"{spread(col['cpu'] - col['model_cpu'], digits=1)} |")
+    print(
+        f"| model calls ({int(np.median(col['model_calls']))} outermost) | {spread(col['model_wall'], digits=1)} | "
+        f"{spread(col['model_cpu'], digits=1)} |"
+    )
+    print(
+        f"| everything else | {spread(col['wall'] - col['model_wall'], digits=1)} | "
+        f"{spread(col['cpu'] - col['model_cpu'], digits=1)} |"
+    )
     print(f"| non-model share | {spread(share_wall * 100, digits=1)} % | {spread(share_cpu * 100, digits=1)} % |")
     args.json.parent.mkdir(parents=True, exist_ok=True)
     args.json.write_text(json.dumps({"command": command, "rounds": rounds}, indent=1))

@@ -41,8 +41,9 @@ SHAPES = [
 ]
 
 
-def shifted_matmul(x: torch.Tensor, weight: torch.Tensor, bias: torch.Tensor, stride: int, dilation: int,
-                   padding: int) -> torch.Tensor:  # fmt: skip
+def shifted_matmul(
+    x: torch.Tensor, weight: torch.Tensor, bias: torch.Tensor, stride: int, dilation: int, padding: int
+) -> torch.Tensor:
     """A Conv1d on (B, T, C) as one matmul: ``(B, T, C_in) -> (B, T_out, C_out)``; the weight keeps its (out, in, k)."""
     out_ch, in_ch, k = weight.shape
     span = dilation * (k - 1) + 1
@@ -92,8 +93,10 @@ def main() -> None:
     args = parser.parse_args()
     threads = apply_threads(args.threads)
     cpu = read_cpu_info().summary
-    print(f"{cpu}; {threads} thread(s); {args.repeats} rounds; ms forward + backward, median (min–max); "
-          "speed-up over conv1d fp32 per round\n")
+    print(
+        f"{cpu}; {threads} thread(s); {args.repeats} rounds; ms forward + backward, median (min–max); "
+        "speed-up over conv1d fp32 per round\n"
+    )
     names = ["conv1d fp32", "conv1d bf16", "conv2d-cl bf16", "matmul bf16"]
     print("| model | convolution | " + " | ".join(names) + " |\n|---|---|" + "---|" * len(names))
     records = []
@@ -105,12 +108,28 @@ def main() -> None:
             speedup = ratio(base, timings[name])
             cells.append(f"{np.median(timings[name].wall) * 1000:.2f} ({ratio_text(speedup, 'wall')})")
         for name, t in timings.items():
-            records.append({"model": model, "conv": what, "shape": [c_in, c_out, k, stride, dilation, T],
-                            "layout": name, "median_s": float(np.median(t.wall)), "min_s": float(t.wall.min()),
-                            "max_s": float(t.wall.max()), "cpu_median_s": float(np.median(t.cpu)),
-                            "cpu": cpu})  # fmt: skip
-        print(f"| {model} | {what} ({c_in}→{c_out}, k{k}" + (f" s{stride}" if stride > 1 else "")
-              + (f" d{dilation}" if dilation > 1 else "") + f", T {T}) | " + " | ".join(cells) + " |", flush=True)
+            records.append(
+                {
+                    "model": model,
+                    "conv": what,
+                    "shape": [c_in, c_out, k, stride, dilation, T],
+                    "layout": name,
+                    "median_s": float(np.median(t.wall)),
+                    "min_s": float(t.wall.min()),
+                    "max_s": float(t.wall.max()),
+                    "cpu_median_s": float(np.median(t.cpu)),
+                    "cpu": cpu,
+                }
+            )
+        print(
+            f"| {model} | {what} ({c_in}→{c_out}, k{k}"
+            + (f" s{stride}" if stride > 1 else "")
+            + (f" d{dilation}" if dilation > 1 else "")
+            + f", T {T}) | "
+            + " | ".join(cells)
+            + " |",
+            flush=True,
+        )
     write_records(args.json, records)
 
 

@@ -47,9 +47,13 @@ TARGET_SPEEDUP = 5.0
 def make_clips(n: int, pool: int, seed: int) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """``n`` ground-truth clips of 40–196 frames cut from ``pool`` generated clips, and noisy copies."""
     names = sorted(FAMILIES)
-    sources = [joints_to_features(generate_clip(names[i % len(names)], np.random.default_rng([seed, i]),
-                                                n_frames=197).joints, retarget_to_target=False)
-               for i in range(pool)]  # fmt: skip
+    sources = [
+        joints_to_features(
+            generate_clip(names[i % len(names)], np.random.default_rng([seed, i]), n_frames=197).joints,
+            retarget_to_target=False,
+        )
+        for i in range(pool)
+    ]
     scale = 0.05 * np.concatenate(sources).std(axis=0)  # (263,)
     rng = np.random.default_rng([seed, n])
     gt, pred = [], []
@@ -65,8 +69,19 @@ def make_clips(n: int, pool: int, seed: int) -> tuple[list[np.ndarray], list[np.
 
 def reference_loop(pred: list[np.ndarray], gt: list[np.ndarray]) -> dict[str, np.ndarray]:
     """Every quantity, one clip at a time: recover both clips' joints, then score them."""
-    keys = ("sjpe", "noise", "static", "noise_ratio", "static_ratio", "jerk_pred", "jerk_gt",
-            "eq10_pred", "eq10_gt", "ldlj_pred", "ldlj_gt")  # fmt: skip
+    keys = (
+        "sjpe",
+        "noise",
+        "static",
+        "noise_ratio",
+        "static_ratio",
+        "jerk_pred",
+        "jerk_gt",
+        "eq10_pred",
+        "eq10_gt",
+        "ldlj_pred",
+        "ldlj_gt",
+    )
     out = {k: np.empty(len(gt)) for k in keys}
     error_sum, poses = 0.0, 0
     for i, (p_feats, g_feats) in enumerate(zip(pred, gt)):
@@ -96,10 +111,16 @@ def motionlab_path(pred: list[np.ndarray], gt: list[np.ndarray]) -> dict[str, np
     p, g = ClipJoints.from_features(pred), ClipJoints.from_features(gt)
     scores = sjpe_variants(p, g)
     element, ratio_ = scores["element"], scores["ratio"]
-    out = {"sjpe": element.sjpe_per_clip, "noise": element.noise_per_clip, "static": element.static_per_clip,
-           "noise_ratio": ratio_.noise_per_clip, "static_ratio": ratio_.static_per_clip,
-           "jerk_pred": element.jerk_pred_per_clip, "jerk_gt": element.jerk_gt_per_clip,
-           "mpjpe": np.array([mpjpe(p, g)])}  # fmt: skip
+    out = {
+        "sjpe": element.sjpe_per_clip,
+        "noise": element.noise_per_clip,
+        "static": element.static_per_clip,
+        "noise_ratio": ratio_.noise_per_clip,
+        "static_ratio": ratio_.static_per_clip,
+        "jerk_pred": element.jerk_pred_per_clip,
+        "jerk_gt": element.jerk_gt_per_clip,
+        "mpjpe": np.array([mpjpe(p, g)]),
+    }
     for name, joints in (("pred", p), ("gt", g)):
         out[f"eq10_{name}"] = clip_log_jerk(joints, window=WINDOW)
         out[f"ldlj_{name}"] = ldlj_from_log_jerk(out[f"eq10_{name}"], np.minimum(joints.lengths, WINDOW))
@@ -126,34 +147,64 @@ def main(argv: list[str] | None = None) -> dict:
         pred, gt = make_clips(n, args.pool, args.seed)
         reference, ours = reference_loop(pred, gt), motionlab_path(pred, gt)
         difference = max_difference(ours, reference)
-        variants = {"reference loop": lambda p=pred, g=gt: reference_loop(p, g),
-                    "motionlab": lambda p=pred, g=gt: motionlab_path(p, g)}  # fmt: skip
+        variants = {
+            "reference loop": lambda p=pred, g=gt: reference_loop(p, g),
+            "motionlab": lambda p=pred, g=gt: motionlab_path(p, g),
+        }
         timing = interleaved(variants, args.repeats)
         speedup = ratio(timing["reference loop"], timing["motionlab"])
-        rows.append({"clips": n, "frames": int(sum(len(c) for c in gt)), "max_difference": difference,
-                     "equal": difference <= TOLERANCE, "speedup": speedup,
-                     "timing": {name: t.summary() for name, t in timing.items()},
-                     "values": {k: float(np.mean(v)) for k, v in ours.items()}, "_timing": timing})  # fmt: skip
+        rows.append(
+            {
+                "clips": n,
+                "frames": int(sum(len(c) for c in gt)),
+                "max_difference": difference,
+                "equal": difference <= TOLERANCE,
+                "speedup": speedup,
+                "timing": {name: t.summary() for name, t in timing.items()},
+                "values": {k: float(np.mean(v)) for k, v in ours.items()},
+                "_timing": timing,
+            }
+        )
 
-    print(f"joint metrics (sJPE both variants, MPJPE, Eq. 10 + LDLJ): per-clip loop vs motionlab; "
-          f"{threads} thread(s), {args.repeats} interleaved rounds, median (min–max)")  # fmt: skip
-    print(f"{'clips':>6} {'frames':>8} {'variant':<15} {'cpu s':>22} {'wall s':>22} {'max |diff|':>11} "
-          f"{'speed-up (cpu)':>20} {'speed-up (wall)':>20}")  # fmt: skip
+    print(
+        f"joint metrics (sJPE both variants, MPJPE, Eq. 10 + LDLJ): per-clip loop vs motionlab; "
+        f"{threads} thread(s), {args.repeats} interleaved rounds, median (min–max)"
+    )
+    print(
+        f"{'clips':>6} {'frames':>8} {'variant':<15} {'cpu s':>22} {'wall s':>22} {'max |diff|':>11} "
+        f"{'speed-up (cpu)':>20} {'speed-up (wall)':>20}"
+    )
     for r in rows:
         for name, t in r["_timing"].items():
             last = name == "motionlab"
-            extra = (f" {r['max_difference']:>11.1e} {ratio_text(r['speedup'], 'cpu'):>20} "
-                     f"{ratio_text(r['speedup'], 'wall'):>20}") if last else ""  # fmt: skip
+            extra = (
+                (
+                    f" {r['max_difference']:>11.1e} {ratio_text(r['speedup'], 'cpu'):>20} "
+                    f"{ratio_text(r['speedup'], 'wall'):>20}"
+                )
+                if last
+                else ""
+            )
             print(f"{r['clips']:>6} {r['frames']:>8} {name:<15} {spread(t.cpu):>22} {spread(t.wall):>22}{extra}")
     for r in rows:
         fast = r["speedup"]["cpu_median"] >= TARGET_SPEEDUP
-        print(f"{r['clips']} clips: values {'equal' if r['equal'] else 'DIFFER'} (max {r['max_difference']:.1e} "
-              f"<= {TOLERANCE:g}: {r['equal']}); motionlab {r['speedup']['cpu_median']:.1f}× faster in CPU time "
-              f"({'meets' if fast else 'MISSES'} the {TARGET_SPEEDUP:g}× target)")  # fmt: skip
+        print(
+            f"{r['clips']} clips: values {'equal' if r['equal'] else 'DIFFER'} (max {r['max_difference']:.1e} "
+            f"<= {TOLERANCE:g}: {r['equal']}); motionlab {r['speedup']['cpu_median']:.1f}× faster in CPU time "
+            f"({'meets' if fast else 'MISSES'} the {TARGET_SPEEDUP:g}× target)"
+        )
         r.pop("_timing")
-    report = {"rows": rows, "repeats": args.repeats, "threads": threads, "pool": args.pool, "seed": args.seed,
-              "tolerance": TOLERANCE, "machine": f"{platform.machine()} {platform.processor() or platform.system()}",
-              "torch": torch.__version__, "numpy": np.__version__}  # fmt: skip
+    report = {
+        "rows": rows,
+        "repeats": args.repeats,
+        "threads": threads,
+        "pool": args.pool,
+        "seed": args.seed,
+        "tolerance": TOLERANCE,
+        "machine": f"{platform.machine()} {platform.processor() or platform.system()}",
+        "torch": torch.__version__,
+        "numpy": np.__version__,
+    }
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(report, indent=2))
     print(f"wrote {args.out}")

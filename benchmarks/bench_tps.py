@@ -69,9 +69,17 @@ def main() -> None:
         row = {"n_actions": n, "frames": n * args.frames, "tokens": n * args.frames // 4}
 
         def run(ts: int, text=text, n=n):
-            out = two_phase_sample(model, transitions, (text, None), [args.frames] * n, T_s=ts,
-                                   generator=torch.Generator().manual_seed(1), num_steps=args.steps,
-                                   guidance_scale=args.guidance, top_p=0.85)  # fmt: skip
+            out = two_phase_sample(
+                model,
+                transitions,
+                (text, None),
+                [args.frames] * n,
+                T_s=ts,
+                generator=torch.Generator().manual_seed(1),
+                num_steps=args.steps,
+                guidance_scale=args.guidance,
+                top_p=0.85,
+            )
             if dev.type == "cuda":
                 torch.cuda.synchronize()
             return out
@@ -81,25 +89,44 @@ def main() -> None:
             row[f"{name}_s"], row[f"{name}_cpu_s"] = float(np.median(t.wall)), float(np.median(t.cpu))
             row[f"{name}_spread"] = t.summary()
         rows.append(row)
-        print(f"N={n:3d}  " + "  ".join(f"{k}={row[f'{k}_s']:.3f}s (cpu {row[f'{k}_cpu_s']:.3f}s)" for k in samplers),
-              flush=True)  # fmt: skip
+        print(
+            f"N={n:3d}  " + "  ".join(f"{k}={row[f'{k}_s']:.3f}s (cpu {row[f'{k}_cpu_s']:.3f}s)" for k in samplers),
+            flush=True,
+        )
 
-    fits = {f"{name}{kind}": linear_fit(args.ns, [r[f"{name}{kind}"] for r in rows])
-            for name in samplers for kind in ("_s", "_cpu_s")}  # fmt: skip
+    fits = {
+        f"{name}{kind}": linear_fit(args.ns, [r[f"{name}{kind}"] for r in rows])
+        for name in samplers
+        for kind in ("_s", "_cpu_s")
+    }
     print(f"\nmedians of {args.repeats} interleaved rounds")
     print(f"{'N':>4} {'frames':>7} " + " ".join(f"{k + ' wall/cpu (s)':>24}" for k in samplers))
     for r in rows:
         cells = [f"{r[f'{k}_s']:.3f} / {r[f'{k}_cpu_s']:.3f}" for k in samplers]
         print(f"{r['n_actions']:>4} {r['frames']:>7} " + " ".join(f"{c:>24}" for c in cells))
     for name, fit in fits.items():
-        print(f"{name:>18}: {fit['slope_s_per_action'] * 1e3:.1f} ms per action, intercept "
-              f"{fit['intercept_s']:.3f} s, R² = {fit['r2']:.4f}")  # fmt: skip
+        print(
+            f"{name:>18}: {fit['slope_s_per_action'] * 1e3:.1f} ms per action, intercept "
+            f"{fit['intercept_s']:.3f} s, R² = {fit['r2']:.4f}"
+        )
 
     device_name = torch.cuda.get_device_name(dev) if dev.type == "cuda" else platform.processor()
-    setting = dict(model="laptop", params=model.num_params, codes=K, T=T, T_s=T_s, steps=args.steps or T,
-                   frames_per_action=args.frames, guidance=args.guidance, top_p=0.85, repeats=args.repeats,
-                   device=str(dev), device_name=device_name, threads=torch.get_num_threads(),
-                   torch=torch.__version__)  # fmt: skip
+    setting = dict(
+        model="laptop",
+        params=model.num_params,
+        codes=K,
+        T=T,
+        T_s=T_s,
+        steps=args.steps or T,
+        frames_per_action=args.frames,
+        guidance=args.guidance,
+        top_p=0.85,
+        repeats=args.repeats,
+        device=str(dev),
+        device_name=device_name,
+        threads=torch.get_num_threads(),
+        torch=torch.__version__,
+    )
     result = {"setting": setting, "rows": rows, "linear_fit": fits}
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(result, indent=1) + "\n")

@@ -88,8 +88,9 @@ def diffusion_trainer(parts, precision: str):
 
     _, config, captions, sequences, transitions, vocabulary = parts
     networks = TextToMotionNetworks(config, vocabulary)
-    return text_to_motion_trainer(networks, sequences, captions, transitions, config, progress=False,
-                                  precision=precision)  # fmt: skip
+    return text_to_motion_trainer(
+        networks, sequences, captions, transitions, config, progress=False, precision=precision
+    )
 
 
 def evaluator_trainer(dataset, precision: str):
@@ -145,8 +146,9 @@ def sampler_rounds(name: str, dataset, parts) -> tuple[dict[str, Callable[[], No
 
         tokenizer = build_tokenizer(rvq_config("laptop")).eval()
         decoder = DisCoRDDecoder(discord_config("laptop", tokenizer=tokenizer)).attach(tokenizer).eval()
-        ids = torch.randint(0, tokenizer.codebook_size, (32, 49, tokenizer.num_layers),
-                            generator=torch.Generator().manual_seed(0))  # fmt: skip
+        ids = torch.randint(
+            0, tokenizer.codebook_size, (32, 49, tokenizer.num_layers), generator=torch.Generator().manual_seed(0)
+        )
         call, items = (lambda: decoder.decode(ids, seed=0)), 32
     else:
         from motionlab.diffusion.pipeline import TextToMotion
@@ -154,8 +156,9 @@ def sampler_rounds(name: str, dataset, parts) -> tuple[dict[str, Callable[[], No
 
         tokenizer, config, captions, _, transitions, vocabulary = parts
         networks = TextToMotionNetworks(config, vocabulary).eval()
-        pipe = TextToMotion(tokenizer, networks.text_encoder, networks.denoiser, transitions, dataset.normalizer,
-                            config.transformer)  # fmt: skip
+        pipe = TextToMotion(
+            tokenizer, networks.text_encoder, networks.denoiser, transitions, dataset.normalizer, config.transformer
+        )
         clips = dataset.split("test")
         if name == "diffusion-sample":
             texts = [clip.captions[0].text for clip in clips[:32]]
@@ -189,8 +192,12 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=5, help="training steps per timed round (default 5)")
     parser.add_argument("--data", default=None, help="dataset folder (default: the embedded dataset, smoke size)")
     parser.add_argument("--json", type=Path, default=None, help="write the records here")
-    parser.add_argument("--profile-top", type=int, default=0,
-                        help="also profile one bf16 round and list its N most expensive operators (default: off)")
+    parser.add_argument(
+        "--profile-top",
+        type=int,
+        default=0,
+        help="also profile one bf16 round and list its N most expensive operators (default: off)",
+    )
     add_timing_arguments(parser, repeats=5)
     args = parser.parse_args()
     threads = apply_threads(args.threads)
@@ -212,10 +219,17 @@ def main() -> None:
         timings = interleaved(rounds, repeats=args.repeats)
         for precision, t in timings.items():
             per_item = t.wall / per_round
-            record = {"model": name, "precision": precision, "median_s": float(np.median(per_item)),
-                      "min_s": float(per_item.min()), "max_s": float(per_item.max()),
-                      "cpu_median_s": float(np.median(t.cpu / per_round)), "repeats": args.repeats,
-                      "cpu": cpu, "threads": threads}  # fmt: skip
+            record = {
+                "model": name,
+                "precision": precision,
+                "median_s": float(np.median(per_item)),
+                "min_s": float(per_item.min()),
+                "max_s": float(per_item.max()),
+                "cpu_median_s": float(np.median(t.cpu / per_round)),
+                "repeats": args.repeats,
+                "cpu": cpu,
+                "threads": threads,
+            }
             if unit == "steps":
                 record["steps_per_s"] = 1.0 / record["median_s"]
             else:
@@ -227,18 +241,25 @@ def main() -> None:
             r["bf16_speedup_wall"], r["bf16_speedup_cpu"] = speedup["wall_median"], speedup["cpu_median"]
         if args.profile_top:
             records[-1]["profile"] = where_time_goes(rounds["bf16"], args.profile_top)
-            print(f"  {name} bf16, where the time goes: " + ", ".join(
-                f"{e['op']} {e['share']:.0%}" for e in records[-1]["profile"]), flush=True)  # fmt: skip
-        lines.append(f"| {name} | {unit} | {spread(timings['fp32'].wall / per_round, 1000, 1)} | "
-                     f"{spread(timings['bf16'].wall / per_round, 1000, 1)} | {ratio_text(speedup, 'wall')} | "
-                     f"{ratio_text(speedup, 'cpu')} |")  # fmt: skip
+            print(
+                f"  {name} bf16, where the time goes: "
+                + ", ".join(f"{e['op']} {e['share']:.0%}" for e in records[-1]["profile"]),
+                flush=True,
+            )
+        lines.append(
+            f"| {name} | {unit} | {spread(timings['fp32'].wall / per_round, 1000, 1)} | "
+            f"{spread(timings['bf16'].wall / per_round, 1000, 1)} | {ratio_text(speedup, 'wall')} | "
+            f"{ratio_text(speedup, 'cpu')} |"
+        )
         print(lines[-1], flush=True)
     if saved is None:
         os.environ.pop("MOTIONLAB_PRECISION", None)
     else:
         os.environ["MOTIONLAB_PRECISION"] = saved
-    print(f"\n{cpu}, {platform.machine()}, {threads} thread(s), {args.repeats} rounds; ms per step or item, "
-          "median (min–max) of wall time; speed-up = fp32 / bf16 per round")
+    print(
+        f"\n{cpu}, {platform.machine()}, {threads} thread(s), {args.repeats} rounds; ms per step or item, "
+        "median (min–max) of wall time; speed-up = fp32 / bf16 per round"
+    )
     print("| model | per | fp32 ms | bf16 ms | bf16 speed-up (wall) | (CPU) |\n|---|---|---|---|---|---|")
     print("\n".join(lines))
     write_records(args.json, records)

@@ -83,8 +83,12 @@ def concat_measures(sequences: list[list[np.ndarray]], kinds: list[str] | None =
         jerks.extend(transition_jerk(*concatenate_segments(segments), WINDOW))
         jumps.extend(seam_pose_jump(a, b) for a, b in zip(segments, segments[1:], strict=False))
     jerks = np.asarray(jerks)
-    out = {"mean": float(np.nanmean(jerks)), "n_seams": len(jerks), "values": _round(jerks, 3),
-           "pose_jump_cm": _round(100 * np.asarray(jumps), 2)}  # fmt: skip
+    out = {
+        "mean": float(np.nanmean(jerks)),
+        "n_seams": len(jerks),
+        "values": _round(jerks, 3),
+        "pose_jump_cm": _round(100 * np.asarray(jumps), 2),
+    }
     if kinds is not None:
         out["kinds"] = kinds
     return out
@@ -96,8 +100,10 @@ def edge_measures(clips: list[np.ndarray]) -> dict:
     out = {key: _round([r[key] for r in rows], 3) for key in rows[0] if not key.startswith("moving")}
     out["share_moving_start"] = float(np.mean([r["moving_start"] for r in rows]))
     out["share_moving_end"] = float(np.mean([r["moving_end"] for r in rows]))
-    step = [np.median(np.linalg.norm(np.diff(recover_from_ric(c.astype(np.float32)), axis=0), axis=-1).mean(-1))
-            for c in clips]  # fmt: skip
+    step = [
+        np.median(np.linalg.norm(np.diff(recover_from_ric(c.astype(np.float32)), axis=0), axis=-1).mean(-1))
+        for c in clips
+    ]
     out["median_frame_step_cm"] = float(100 * np.median(step))
     return out
 
@@ -106,9 +112,13 @@ def measure_embedded(out: Path, n_clips: int, seed: int) -> Path:
     with tempfile.TemporaryDirectory(prefix="clip-boundaries-") as tmp:
         wall, cpu = time.perf_counter(), time.process_time()
         root = write_embedded_dataset(Path(tmp) / "data", n_clips, seed=seed, progress=False, workers=1)
-        generation = {"n_clips": n_clips, "workers": 1, "wall_s": round(time.perf_counter() - wall, 1),
-                      "cpu_s": round(time.process_time() - cpu, 1),
-                      "load_after": _round(os.getloadavg(), 2)}  # fmt: skip
+        generation = {
+            "n_clips": n_clips,
+            "workers": 1,
+            "wall_s": round(time.perf_counter() - wall, 1),
+            "cpu_s": round(time.process_time() - cpu, 1),
+            "load_after": _round(os.getloadavg(), 2),
+        }
         print(f"generated {n_clips} clips in {generation['wall_s']} s ({generation['cpu_s']} CPU-s)", flush=True)
         dataset = MotionDataset(root)
         meta = json.loads((root / "meta.json").read_text())["clips"]
@@ -118,21 +128,28 @@ def measure_embedded(out: Path, n_clips: int, seed: int) -> Path:
         segments = [s for seq in sequences for s in seq]
         # what each clip shows at its ends (version 3 on; every earlier clip starts and ends at rest)
         ends = {cid: (c["params"].get("starts", "rest"), c["params"].get("ends", "rest")) for cid, c in meta.items()}
-        kinds = [f"{ends[a.name][1]}|{ends[b.name][0]}" for inst in instances
-                 for a, b in zip(inst.clips, inst.clips[1:], strict=False)]  # fmt: skip
+        kinds = [
+            f"{ends[a.name][1]}|{ends[b.name][0]}"
+            for inst in instances
+            for a, b in zip(inst.clips, inst.clips[1:], strict=False)
+        ]
         concat = concat_measures(sequences, kinds)
         # the same number chapter 09 reports, from its own function
         assert np.isclose(concat["mean"], ground_truth_concat_jerk(instances)), concat["mean"]
         lengths = np.array([c["n_frames"] for c in meta.values()])
         result = {
-            "source": "embedded", "version": VERSION, "seed": seed, "generation": generation,
+            "source": "embedded",
+            "version": VERSION,
+            "seed": seed,
+            "generation": generation,
             "lengths": {f"p{p}": float(np.percentile(lengths, p)) for p in (0, 10, 50, 90, 100)},
-            "n_pool": len(pool), "n_instances": len(instances),
+            "n_pool": len(pool),
+            "n_instances": len(instances),
             "edges": edge_measures([p.clip.features for p in pool]),
             "concat": concat,
             "concat_laptop_subset": ground_truth_concat_jerk(instances[:LAPTOP_INSTANCES]),
             "single": single_jerk(segments, concat["n_seams"]),
-        }  # fmt: skip
+        }
     return _write(out / f"embedded-v{VERSION}.json", result)
 
 
@@ -171,23 +188,34 @@ def measure_real(out: Path, shared: Path, seed: int) -> Path:
     whole = {name: f[: len(f) // 4 * 4] for name, (f, _) in takes.items()}  # floored to 4 frames, as chapter 09
     cut_clips = [(name, c[: len(c) // 4 * 4]) for name, cs in cuts.items() for c in cs]
     result = {
-        "source": "real", "seed": seed, "takes": {name: len(f) for name, (f, _) in takes.items()},
+        "source": "real",
+        "seed": seed,
+        "takes": {name: len(f) for name, (f, _) in takes.items()},
         "acknowledgement": "CMU: the data used in this project was obtained from mocap.cs.cmu.edu. The database was "
-                           "created with funding from NSF EIA-0196217.",
-        "whole": {"edges": edge_measures(list(whole.values())),
-                  "concat": concat_measures([[whole[a], whole[b]] for a, b in permutations(whole, 2)]),
-                  "single": single_jerk(list(whole.values()), 200)},
+        "created with funding from NSF EIA-0196217.",
+        "whole": {
+            "edges": edge_measures(list(whole.values())),
+            "concat": concat_measures([[whole[a], whole[b]] for a, b in permutations(whole, 2)]),
+            "single": single_jerk(list(whole.values()), 200),
+        },
         # pairs of windows from different takes: a window joined to its own take's continuation would be seamless
-        "cut": {"cuts_per_take": CUTS_PER_TAKE, "lengths": list(CUT_LENGTHS),
-                "edges": edge_measures([c for _, c in cut_clips]),
-                "concat": concat_measures([[a, b] for (ta, a), (tb, b) in permutations(cut_clips, 2) if ta != tb])},
-    }  # fmt: skip
+        "cut": {
+            "cuts_per_take": CUTS_PER_TAKE,
+            "lengths": list(CUT_LENGTHS),
+            "edges": edge_measures([c for _, c in cut_clips]),
+            "concat": concat_measures([[a, b] for (ta, a), (tb, b) in permutations(cut_clips, 2) if ta != tb]),
+        },
+    }
     return _write(out / "real.json", result)
 
 
 def _write(path: Path, result: dict) -> Path:
-    result["machine"] = {"python": platform.python_version(), "torch": torch.__version__, "cpus": os.cpu_count(),
-                         "date": time.strftime("%Y-%m-%d")}  # fmt: skip
+    result["machine"] = {
+        "python": platform.python_version(),
+        "torch": torch.__version__,
+        "cpus": os.cpu_count(),
+        "date": time.strftime("%Y-%m-%d"),
+    }
     path.parent.mkdir(parents=True, exist_ok=True)
     flat_list = re.compile(r"\[\s+([^\[\]{}]*?)\s+\]")  # a list of numbers or words: one line, not one per item
     text = flat_list.sub(lambda m: "[" + " ".join(m.group(1).split()) + "]", json.dumps(result, indent=1))
@@ -213,10 +241,12 @@ def main() -> None:
     for part in parts:
         single = part.get("single", {}).get("mean", float("nan"))
         edges = part["edges"]
-        print(f"{path.name}: concat Jerk {part['concat']['mean']:.3f} ({part['concat']['n_seams']} seams), single "
-              f"{single:.3f}; moving starts {edges['share_moving_start']:.0%}, ends {edges['share_moving_end']:.0%} "
-              f"(joint speed >= {MOVING_SPEED} m/s); seam pose jump median "
-              f"{np.median(part['concat']['pose_jump_cm']):.1f} cm")  # fmt: skip
+        print(
+            f"{path.name}: concat Jerk {part['concat']['mean']:.3f} ({part['concat']['n_seams']} seams), single "
+            f"{single:.3f}; moving starts {edges['share_moving_start']:.0%}, ends {edges['share_moving_end']:.0%} "
+            f"(joint speed >= {MOVING_SPEED} m/s); seam pose jump median "
+            f"{np.median(part['concat']['pose_jump_cm']):.1f} cm"
+        )
 
 
 if __name__ == "__main__":

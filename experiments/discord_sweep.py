@@ -88,8 +88,9 @@ def samplings_for(config) -> dict[str, dict]:
     return {k: v for k, v in SAMPLINGS.items() if config.prediction == "x" or not v.get("final_prediction")}
 
 
-def score_decoder(decoder, tokenizer, normalized, gt, dataset, evaluator, gt_embeddings,
-                  seed: int) -> tuple[dict, list[np.ndarray]]:  # fmt: skip
+def score_decoder(
+    decoder, tokenizer, normalized, gt, dataset, evaluator, gt_embeddings, seed: int
+) -> tuple[dict, list[np.ndarray]]:
     """Reconstruction scores of one decode of the validation clips, and the decoded (normalised) clips."""
     recon = decode_clips(normalized, tokenizer, decoder, seed=seed)
     raw = [dataset.normalizer.denormalize(r) for r in recon]
@@ -102,8 +103,16 @@ def evaluate(decoder, tokenizer, normalized, gt, dataset, evaluator, gt_embeddin
     for name, options in samplings_for(decoder.config).items():
         runs, recons = [], []
         for s in range(seeds):
-            scores, recon = score_decoder(decoder.with_sampling(**options), tokenizer, normalized, gt, dataset,
-                                          evaluator, gt_embeddings, seed=1000 + s)  # fmt: skip
+            scores, recon = score_decoder(
+                decoder.with_sampling(**options),
+                tokenizer,
+                normalized,
+                gt,
+                dataset,
+                evaluator,
+                gt_embeddings,
+                seed=1000 + s,
+            )
             runs.append(scores)
             recons.append(recon)
         row = {"runs": runs}
@@ -126,8 +135,12 @@ def run_variant(name: str, args) -> dict:
     normalized = [dataset.normalizer.normalize(c.features) for c in clips]
     gt = [c.features[: len(c.features) // q * q] for c in clips]
     gt_embeddings = evaluator.embed_motions(gt)
-    ff = reconstruction_scores([dataset.normalizer.denormalize(r) for r in decode_clips(normalized, tokenizer)],
-                               gt, evaluator.embed_motions, gt_embeddings).as_dict()  # fmt: skip
+    ff = reconstruction_scores(
+        [dataset.normalizer.denormalize(r) for r in decode_clips(normalized, tokenizer)],
+        gt,
+        evaluator.embed_motions,
+        gt_embeddings,
+    ).as_dict()
 
     truth = reconstruction_scores(gt, gt).as_dict()  # the ground truth's own jerk, for scale
 
@@ -148,13 +161,25 @@ def run_variant(name: str, args) -> dict:
     val_fn = flow_validation(tokenizer, dataset.normalized("val"), config.window, seed=config.seed)
     train = config.train_config(seed=config.seed, log_every=max(1, steps // 50))
     trainer = Trainer(model, discord_loss_fn, batches, train, progress=False)
-    result = {"variant": name, "overrides": VARIANTS[name], "config": config.to_dict(), "budget_s": args.budget,
-              "calibrated_s_per_step": per_step, "feed_forward": ff, "ground_truth": truth, "checkpoints": [],
-              "clips": len(clips),
-              "machine": {"cpus": os.cpu_count(), "python": platform.python_version(), "torch": torch.__version__,
-                          "cpu": read_cpu_info().model or platform.processor() or "unknown"},
-              "precision": trainer.precision,
-              "dataset": dataset.key}  # fmt: skip
+    result = {
+        "variant": name,
+        "overrides": VARIANTS[name],
+        "config": config.to_dict(),
+        "budget_s": args.budget,
+        "calibrated_s_per_step": per_step,
+        "feed_forward": ff,
+        "ground_truth": truth,
+        "checkpoints": [],
+        "clips": len(clips),
+        "machine": {
+            "cpus": os.cpu_count(),
+            "python": platform.python_version(),
+            "torch": torch.__version__,
+            "cpu": read_cpu_info().model or platform.processor() or "unknown",
+        },
+        "precision": trainer.precision,
+        "dataset": dataset.key,
+    }
     train_seconds = 0.0
     for fraction in args.fractions:
         until = max(1, round(fraction * steps))
@@ -164,16 +189,27 @@ def run_variant(name: str, args) -> dict:
         last = fraction == args.fractions[-1]
         with trainer.ema.apply_to(model):
             model.eval()
-            scores = evaluate(model, tokenizer, normalized, gt, dataset, evaluator, gt_embeddings,
-                              args.seeds if last else 1)  # fmt: skip
+            scores = evaluate(
+                model, tokenizer, normalized, gt, dataset, evaluator, gt_embeddings, args.seeds if last else 1
+            )
             val_loss = val_fn(model)["loss"]
             model.train()
-        result["checkpoints"].append({"step": until, "fraction": fraction, "train_seconds": train_seconds,
-                                      "val_loss": val_loss, "samplings": scores})  # fmt: skip
+        result["checkpoints"].append(
+            {
+                "step": until,
+                "fraction": fraction,
+                "train_seconds": train_seconds,
+                "val_loss": val_loss,
+                "samplings": scores,
+            }
+        )
         best = min(scores.items(), key=lambda kv: np.mean([r["sjpe"] for r in kv[1]["runs"]]))
-        print(f"[{name}] step {until}/{steps} ({train_seconds:.0f} s): val loss {val_loss:.4f}; "
-              f"best sampling {best[0]} sJPE {np.mean([r['sjpe'] for r in best[1]['runs']]):.3f} "
-              f"(feed-forward {ff['sjpe']:.3f})", flush=True)  # fmt: skip
+        print(
+            f"[{name}] step {until}/{steps} ({train_seconds:.0f} s): val loss {val_loss:.4f}; "
+            f"best sampling {best[0]} sJPE {np.mean([r['sjpe'] for r in best[1]['runs']]):.3f} "
+            f"(feed-forward {ff['sjpe']:.3f})",
+            flush=True,
+        )
     result["history"] = trainer.history
     return result
 

@@ -89,19 +89,33 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=5, help="evaluation repeats for the 95%% intervals")
     parser.add_argument("--data", default=None, help="a dataset folder (default: the embedded dataset of the profile)")
     parser.add_argument("--out", type=Path, required=True)
-    parser.add_argument("--evaluator", action="store_true",
-                        help="only train the evaluator in this precision and add its validation scores to the record")
+    parser.add_argument(
+        "--evaluator",
+        action="store_true",
+        help="only train the evaluator in this precision and add its validation scores to the record",
+    )
     args = parser.parse_args()
     if args.evaluator:
         return add_evaluator_parity(args)
     data = ["--data", args.data] if args.data else []
-    env = {**os.environ, "MOTIONLAB_PRECISION": args.precision, "MOTIONLAB_PROFILE": args.profile,
-           "MOTIONLAB_THREADS": "1", "OMP_NUM_THREADS": "1"}  # fmt: skip
+    env = {
+        **os.environ,
+        "MOTIONLAB_PRECISION": args.precision,
+        "MOTIONLAB_PROFILE": args.profile,
+        "MOTIONLAB_THREADS": "1",
+        "OMP_NUM_THREADS": "1",
+    }
     args.out.mkdir(parents=True, exist_ok=True)
-    record = {"precision": args.precision, "profile": args.profile, "cpu": read_cpu_info().summary,
-              "machine": platform.machine(), "data": args.data or "embedded", "auto_here": resolve_precision("auto"),
-              "training": {},
-              "started": time.strftime("%Y-%m-%d %H:%M")}  # fmt: skip
+    record = {
+        "precision": args.precision,
+        "profile": args.profile,
+        "cpu": read_cpu_info().summary,
+        "machine": platform.machine(),
+        "data": args.data or "embedded",
+        "auto_here": resolve_precision("auto"),
+        "training": {},
+        "started": time.strftime("%Y-%m-%d %H:%M"),
+    }
     for model in MODELS:
         record["training"][model] = run(["train", model, *data], env)
         print(f"{args.precision}: trained {model} {record['training'][model]}", flush=True)

@@ -67,8 +67,10 @@ def main(argv: list[str] | None = None) -> int:
     updated = render(intro, load_costs(ROOT, args.profile))
     if args.check:
         if updated != intro:
-            print("book/intro.md's chapter map differs from the recorded build times: run tools/chapter_map.py",
-                  file=sys.stderr)
+            print(
+                "book/intro.md's chapter map differs from the recorded build times: run tools/chapter_map.py",
+                file=sys.stderr,
+            )
             return 1
         return 0
     intro_path.write_text(updated)

@@ -47,8 +47,11 @@ setTimeout(measure, 1500);
 
 def pages(site: Path) -> list[Path]:
     skip = {"_static", "_sources", "_images", "_downloads"}
-    return sorted(p for p in site.rglob("*.html") if not skip & set(p.relative_to(site).parts)
-                  and p.name not in {"genindex.html", "search.html", "index.html"})
+    return sorted(
+        p
+        for p in site.rglob("*.html")
+        if not skip & set(p.relative_to(site).parts) and p.name not in {"genindex.html", "search.html", "index.html"}
+    )
 
 
 def measure(site: Path, width: int = 1300) -> dict[str, dict]:
@@ -58,8 +61,15 @@ def measure(site: Path, width: int = 1300) -> dict[str, dict]:
     opts = webdriver.ChromeOptions()
     opts.binary_location = "/usr/bin/chromium"
     with tempfile.TemporaryDirectory() as profile:
-        for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-                    f"--user-data-dir={profile}", f"--window-size={width},1000", "--proxy-server=127.0.0.1:9"):
+        for arg in (
+            "--headless=new",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-dev-shm-usage",
+            f"--user-data-dir={profile}",
+            f"--window-size={width},1000",
+            "--proxy-server=127.0.0.1:9",
+        ):
             opts.add_argument(arg)
         driver = webdriver.Chrome(service=Service(executable_path="/usr/bin/chromedriver"), options=opts)
         driver.set_script_timeout(60)
@@ -84,8 +94,10 @@ def main(argv: list[str] | None = None) -> int:
     result = measure(args.site, args.width)
     for page, m in result.items():
         wide = ", ".join(f"{w['what']}" + (f" +{w['by']}px" if "by" in w else "") for w in m["wide"]) or "-"
-        print(f"{page:42s} {m['height']:7,d} px  column {m['column']} px  code shown {m['shown']:2d}, "
-              f"folded {m['folded']:2d}  wide: {wide}")
+        print(
+            f"{page:42s} {m['height']:7,d} px  column {m['column']} px  code shown {m['shown']:2d}, "
+            f"folded {m['folded']:2d}  wide: {wide}"
+        )
     if args.json:
         args.json.write_text(json.dumps(result, indent=1) + "\n")
     return 0

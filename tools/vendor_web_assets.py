@@ -58,14 +58,19 @@ def is_current(dest: Path) -> bool:
 def npm_install() -> Path:
     """Run ``npm ci`` at the repository root when node_modules lacks a needed package."""
     modules = ROOT / "node_modules"
-    needed = [modules / WIDGETS / "embed-amd.js", modules / MATHJAX / "tex-chtml.js",
-              modules / "requirejs" / "require.js"]
+    needed = [
+        modules / WIDGETS / "embed-amd.js",
+        modules / MATHJAX / "tex-chtml.js",
+        modules / "requirejs" / "require.js",
+    ]
     if all(p.exists() for p in needed):
         return modules
     npm = shutil.which("npm")
     if npm is None:
-        sys.exit("vendor_web_assets: npm is not on PATH. Install Node.js (>= 18) so that the book's "
-                 "MathJax and widget renderers can be vendored for offline reading.")
+        sys.exit(
+            "vendor_web_assets: npm is not on PATH. Install Node.js (>= 18) so that the book's "
+            "MathJax and widget renderers can be vendored for offline reading."
+        )
     cmd = [npm, "ci", "--no-audit", "--no-fund", "--ignore-scripts", "--loglevel=error"]
     print("vendor_web_assets:", " ".join(cmd[1:]), flush=True)
     subprocess.run(cmd, cwd=ROOT, check=True)

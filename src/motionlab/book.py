@@ -8,7 +8,8 @@ A chapter notebook starts with two cells::
     seed = 0
 
     from motionlab import book
-    profile = book.setup(seed=seed, profile=profile)            # validated profile name
+    settings = book.setup(seed=seed, profile=profile)           # the run's settings: .profile, .sizes
+    profile = settings.profile
 
 The library is the single source of truth. To *teach* a function, show its source instead of
 retyping it, so the text can never drift from the code that runs::
@@ -53,10 +54,14 @@ import re
 import textwrap
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from motionlab.profiles import env_threads
+
+if TYPE_CHECKING:
+    from motionlab.settings import RunSettings
 
 # Small, crisp figures: a book page is ~700 px wide and the site must stay light.
 RC_PARAMS = {
@@ -79,8 +84,13 @@ RC_PARAMS = {
 _CDN_LINK = re.compile(r"<link[^>]*href=[\"']https?://[^\"']*font-awesome[^\"']*[\"'][^>]*>\s*", re.IGNORECASE)
 
 
-def setup(seed: int = 0, profile: str | None = None, threads: int | None = None, precision: str | None = None) -> str:
-    """Resolve the chapter's run settings, seed every RNG, set plotting defaults; return the validated profile.
+def setup(
+    seed: int = 0, profile: str | None = None, threads: int | None = None, precision: str | None = None
+) -> RunSettings:
+    """Resolve the chapter's run settings, seed every RNG, set plotting defaults; return the settings.
+
+    The returned :class:`~motionlab.settings.RunSettings` carries the validated ``profile`` and the chapter sizes of
+    that profile (``settings.sizes``, :mod:`motionlab.sizes`).
 
     ``profile`` falls back to ``$MOTIONLAB_PROFILE`` and then ``"laptop"`` (see :mod:`motionlab.profiles`);
     ``precision`` to ``$MOTIONLAB_PRECISION`` and then ``"auto"`` (see :mod:`motionlab.precision`): together they
@@ -111,7 +121,7 @@ def setup(seed: int = 0, profile: str | None = None, threads: int | None = None,
     mpl.rcParams.update(RC_PARAMS)
     global _started, _profile
     _started, _profile = time.perf_counter(), f"{profile}, {settings.resolved_precision()}"
-    return profile
+    return settings
 
 
 _started: float | None = None  # when setup() ran: the chapter's start
@@ -136,8 +146,9 @@ def repository_path(*parts: str) -> Path:
         candidate = folder.joinpath(*parts)
         if candidate.exists():
             return candidate
-    raise FileNotFoundError(f"{Path(*parts)} not found in {here} or any folder above it: run the chapter inside "
-                            "the book's repository")  # fmt: skip
+    raise FileNotFoundError(
+        f"{Path(*parts)} not found in {here} or any folder above it: run the chapter inside the book's repository"
+    )
 
 
 def show_source(obj: object):
@@ -206,9 +217,14 @@ class FindingsBox:
 
         self.chapter = chapter
         self.display_id = f"motionlab-findings-{chapter}-{uuid.uuid4().hex[:8]}"
-        display(HTML('<div class="admonition note ml-findings"><p class="admonition-title">What this chapter found</p>'
-                     "<p>Run the chapter to its end: this box then lists its findings, generated from the numbers "
-                     "it records.</p></div>"), display_id=self.display_id)
+        display(
+            HTML(
+                '<div class="admonition note ml-findings"><p class="admonition-title">What this chapter found</p>'
+                "<p>Run the chapter to its end: this box then lists its findings, generated from the numbers "
+                "it records.</p></div>"
+            ),
+            display_id=self.display_id,
+        )
 
     def update(self, profile: str | None = None):
         """Judge the chapter's claims and findings on its recorded numbers and show them in the box; return them."""

@@ -38,20 +38,48 @@ from .train.plan import Job
 # a DisCoRD step 0.475 s, x 4,000 for chapter 05's decoder and x 1,150 for chapter 04's ablation, a diffusion step
 # 0.32 s x 800); they drive the plan line and the progress estimates, nothing else.
 ESTIMATES_S: dict[str, dict[str, float]] = {
-    "smoke": {"data": 8, "tokenizer": 10, "toy_flow": 5, "evaluator": 10, "discord": 10, "discord_ablation": 10,
-              "t2m": 15},
-    "laptop": {"data": 90, "tokenizer": 510, "toy_flow": 60, "evaluator": 185, "discord": 1950, "discord_ablation": 560,
-               "t2m": 260},
-    "full": {"data": 1500, "tokenizer": 36_000, "toy_flow": 300, "evaluator": 36_000, "discord": 360_000,
-             "discord_ablation": 360_000, "t2m": 180_000},
-}  # fmt: skip
+    "smoke": {
+        "data": 8,
+        "tokenizer": 10,
+        "toy_flow": 5,
+        "evaluator": 10,
+        "discord": 10,
+        "discord_ablation": 10,
+        "t2m": 15,
+    },
+    "laptop": {
+        "data": 90,
+        "tokenizer": 510,
+        "toy_flow": 60,
+        "evaluator": 185,
+        "discord": 1950,
+        "discord_ablation": 560,
+        "t2m": 260,
+    },
+    "full": {
+        "data": 1500,
+        "tokenizer": 36_000,
+        "toy_flow": 300,
+        "evaluator": 36_000,
+        "discord": 360_000,
+        "discord_ablation": 360_000,
+        "t2m": 180_000,
+    },
+}
 
 # A bf16 run's training time is the fp32 estimate over this factor: the CPU-time ratio of whole laptop trainings, fp32
 # vs bf16 side by side on an AMD EPYC with AVX512-BF16 and no AMX (experiments/precision_parity.py, 2026-12-02; the
 # same steps timed alone by benchmarks/bench_train.py: tokenizers 1.27-1.39x, DisCoRD 1.34x, diffusion 1.38x). The
 # evaluator always trains in fp32 (motionlab.metrics.evaluator_training.EVALUATOR_PRECISION).
-BF16_SPEEDUP: dict[str, float] = {"data": 1.0, "tokenizer": 1.37, "toy_flow": 1.0, "evaluator": 1.0, "discord": 1.24,
-                                  "discord_ablation": 1.24, "t2m": 1.22}  # fmt: skip
+BF16_SPEEDUP: dict[str, float] = {
+    "data": 1.0,
+    "tokenizer": 1.37,
+    "toy_flow": 1.0,
+    "evaluator": 1.0,
+    "discord": 1.24,
+    "discord_ablation": 1.24,
+    "t2m": 1.22,
+}
 
 
 def job_precision(name: str, run_precision: str) -> str:
@@ -111,8 +139,9 @@ def make_toy_flow(profile: str, seed: int, conditional: bool, data: str | None =
     """Chapter 03's 2-D toy flows (``data`` is accepted for a uniform signature; they never read motion)."""
     from .flow.toy import toy_flow_config, train_or_load_toy_flow
 
-    train_or_load_toy_flow(toy_flow_config(profile, distribution="ring", conditional=conditional, seed=seed),
-                           profile=profile)  # fmt: skip
+    train_or_load_toy_flow(
+        toy_flow_config(profile, distribution="ring", conditional=conditional, seed=seed), profile=profile
+    )
 
 
 def make_evaluator(profile: str, seed: int, data: str | None = None) -> None:
@@ -121,8 +150,14 @@ def make_evaluator(profile: str, seed: int, data: str | None = None) -> None:
     load_or_train_evaluator(book_dataset(profile, seed, data), profile)
 
 
-def make_discord(profile: str, seed: int, tokens: str, projection: str | None = None, data: str | None = None,
-                 overrides: dict | None = None) -> None:  # fmt: skip
+def make_discord(
+    profile: str,
+    seed: int,
+    tokens: str,
+    projection: str | None = None,
+    data: str | None = None,
+    overrides: dict | None = None,
+) -> None:
     """Train (or find cached) a DisCoRD decoder: the profile's own (``projection=None``, chapters 05 and 09) or one
     of chapter 04's ablation decoders."""
     from .flow import discord_config, train_or_load_discord
@@ -151,8 +186,14 @@ def projection_config(profile: str, tokenizer, projection: str = "stacked", seed
     return discord_config(profile, tokenizer=tokenizer, projection=projection, seed=seed, **{**budget, **overrides})
 
 
-def make_text_to_motion(profile: str, seed: int, eta: float | None, training_seed: int | None = None,
-                        data: str | None = None, distance: str = "l2_rank") -> None:  # fmt: skip
+def make_text_to_motion(
+    profile: str,
+    seed: int,
+    eta: float | None,
+    training_seed: int | None = None,
+    data: str | None = None,
+    distance: str = "l2_rank",
+) -> None:
     from .diffusion import text_to_motion_for_dataset
 
     dataset = book_dataset(profile, seed, data)
@@ -170,8 +211,9 @@ def is_cached(run) -> bool:
     return True
 
 
-def book_jobs(profile: str | None = None, seed: int = 0, *, data: str | None = None,
-              flow_options: dict | None = None) -> list[Job]:
+def book_jobs(
+    profile: str | None = None, seed: int = 0, *, data: str | None = None, flow_options: dict | None = None
+) -> list[Job]:
     """The book's models for ``profile``, in a valid training order (inputs first).
 
     ``data`` trains them on a dataset folder instead of the embedded data; ``flow_options`` override the
@@ -207,8 +249,14 @@ def book_jobs(profile: str | None = None, seed: int = 0, *, data: str | None = N
         job("discord/rvq-stacked", make_discord, ("rvq", "stacked"), "discord_ablation", rvq),
         job("discord/rvq-repeat", make_discord, ("rvq", "repeat"), "discord_ablation", rvq),
         job("discord/rvq-transposed", make_discord, ("rvq", "transposed"), "discord_ablation", rvq),
-        *([job(f"t2m/distance-{d}", make_text_to_motion, (None, None), "t2m", vq, distance=d)
-           for d in ("l2", "cosine", "cosine_rank")] if profile == "full" else []),  # chapter 08's distance ablation
+        *(
+            [
+                job(f"t2m/distance-{d}", make_text_to_motion, (None, None), "t2m", vq, distance=d)
+                for d in ("l2", "cosine", "cosine_rank")
+            ]
+            if profile == "full"
+            else []
+        ),  # chapter 08's distance ablation
         job("evaluator", make_evaluator, (), "evaluator", ("data",)),
         job("toy_flow/ring", make_toy_flow, (False,), "toy_flow"),
         job("toy_flow/ring-conditional", make_toy_flow, (True,), "toy_flow"),
@@ -221,18 +269,32 @@ CHAPTER_MODELS: dict[str, tuple[str, ...]] = {
     "01_motion_data": ("data",),
     "02_vector_quantization": ("data", "tokenizer/vq", "tokenizer/rvq"),
     "03_rectified_flow": ("toy_flow/ring", "toy_flow/ring-conditional"),
-    "04_condition_projection": ("data", "tokenizer/rvq", "discord/rvq-stacked", "discord/rvq-repeat",
-                                "discord/rvq-transposed"),
+    "04_condition_projection": (
+        "data",
+        "tokenizer/rvq",
+        "discord/rvq-stacked",
+        "discord/rvq-repeat",
+        "discord/rvq-transposed",
+    ),
     "05_discord": ("data", "tokenizer/rvq", "discord/rvq", "evaluator"),
     "06_sjpe": ("data", "evaluator"),
     "07_discrete_diffusion": ("data", "tokenizer/vq", "t2m/dynamic", "evaluator"),
-    "08_dynamic_transitions": ("data", "tokenizer/vq", "t2m/dynamic", "t2m/uniform", "t2m/multi-eta0.25",
-                               "t2m/dynamic-seed1", "t2m/uniform-seed1", "t2m/dynamic-seed2", "t2m/uniform-seed2",
-                               "evaluator"),
+    "08_dynamic_transitions": (
+        "data",
+        "tokenizer/vq",
+        "t2m/dynamic",
+        "t2m/uniform",
+        "t2m/multi-eta0.25",
+        "t2m/dynamic-seed1",
+        "t2m/uniform-seed1",
+        "t2m/dynamic-seed2",
+        "t2m/uniform-seed2",
+        "evaluator",
+    ),
     "09_two_phase_sampling": ("data", "tokenizer/vq", "t2m/uniform", "t2m/multi-eta0.25", "discord/vq", "evaluator"),
     "98_full_scale": (),
     "99_what_reproduces": (),
-}  # fmt: skip
+}
 
 
 def chapter_costs(training: dict[str, dict], execution: dict[str, dict]) -> dict[str, tuple[float, float]]:
@@ -269,6 +331,18 @@ def jobs_for(names: Sequence[str], profile: str | None = None, **kwargs) -> list
     return [job for name, job in jobs.items() if name in needed]
 
 
-__all__ = ["ABLATION_STEPS", "BF16_SPEEDUP", "CHAPTER_MODELS", "ESTIMATES_S", "book_dataset", "book_jobs",
-           "chapter_costs", "forget_book_datasets", "is_cached", "job_precision", "jobs_for", "projection_config",
-           "training_estimates"]  # fmt: skip
+__all__ = [
+    "ABLATION_STEPS",
+    "BF16_SPEEDUP",
+    "CHAPTER_MODELS",
+    "ESTIMATES_S",
+    "book_dataset",
+    "book_jobs",
+    "chapter_costs",
+    "forget_book_datasets",
+    "is_cached",
+    "job_precision",
+    "jobs_for",
+    "projection_config",
+    "training_estimates",
+]

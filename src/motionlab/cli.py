@@ -34,8 +34,10 @@ def _data_make_embedded(args: argparse.Namespace) -> int:
     if args.out is None:
         if args.clips is not None:  # the cached dataset's size is the profile's: never ignore --clips silently
             size = EMBEDDED_SIZES[args.settings.profile]
-            raise ValueError(f"--clips needs --out: the cached dataset of a profile has its own size ({size} clips "
-                             f"for {args.settings.profile}); write a custom size to a folder of your own")
+            raise ValueError(
+                f"--clips needs --out: the cached dataset of a profile has its own size ({size} clips "
+                f"for {args.settings.profile}); write a custom size to a folder of your own"
+            )
         _check_cache_writable()
         path = ensure_embedded(profile=args.profile, seed=args.seed)
     else:
@@ -54,14 +56,24 @@ def _data_from_bvh(args: argparse.Namespace) -> int:
     from .data.from_bvh import dataset_from_bvh
 
     try:
-        report = dataset_from_bvh(args.folder, args.out, captions=args.captions, mapping=args.mapping,
-                                  scale=args.scale, up=args.up, seed=args.seed, force=args.force)  # fmt: skip
+        report = dataset_from_bvh(
+            args.folder,
+            args.out,
+            captions=args.captions,
+            mapping=args.mapping,
+            scale=args.scale,
+            up=args.up,
+            seed=args.seed,
+            force=args.force,
+        )
     except FileExistsError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"\ninterrupted: the clips converted so far are kept in {args.out}; the same command resumes",
-              file=sys.stderr)  # fmt: skip
+        print(
+            f"\ninterrupted: the clips converted so far are kept in {args.out}; the same command resumes",
+            file=sys.stderr,
+        )
         return 130
     print(report.summary())
     return 0
@@ -84,8 +96,13 @@ def _train(args: argparse.Namespace) -> int:
     _check_cache_writable()  # a read-only cache would fail only after the training
     ctx = init_distributed()  # a no-op unless launched by torchrun
     profile = args.settings.profile
-    model_job = {"vq": "tokenizer/vq", "rvq": "tokenizer/rvq", "evaluator": "evaluator", "diffusion": "t2m/dynamic",
-                 "discord": f"discord/{args.tokenizer or 'rvq'}"}[args.model]  # fmt: skip
+    model_job = {
+        "vq": "tokenizer/vq",
+        "rvq": "tokenizer/rvq",
+        "evaluator": "evaluator",
+        "diffusion": "t2m/dynamic",
+        "discord": f"discord/{args.tokenizer or 'rvq'}",
+    }[args.model]
     with _probe_then_run():
         if ctx.is_main:
             _announce_training(profile, [model_job], args.data, flow_options)
@@ -102,8 +119,10 @@ def _train_book(args: argparse.Namespace, flow_options: dict) -> int:
     from .train.plan import results_table, run_plan
 
     given = [f"--{k.replace('_', '-')}" for k in flow_options] + [
-        option for option, value in (("--data", args.data), ("--device", args.device), ("--tokenizer", args.tokenizer))
-        if value]  # fmt: skip
+        option
+        for option, value in (("--data", args.data), ("--device", args.device), ("--tokenizer", args.tokenizer))
+        if value
+    ]
     if given:  # the book's models are fixed by its chapters
         raise ValueError(f"{', '.join(given)} cannot be used with 'train book': it trains the book's own models")
     jobs = args.jobs if args.jobs is not None else 2
@@ -143,8 +162,11 @@ def _record_training(path: Path, results) -> None:
     precision = network_precision(get_device(None))
     for r in results:
         if r.status == "trained":
-            recorded[r.name] = {"seconds": round(r.seconds, 1), "cpu_seconds": round(r.cpu_seconds, 1),
-                                "precision": job_precision(r.name, precision)}  # fmt: skip
+            recorded[r.name] = {
+                "seconds": round(r.seconds, 1),
+                "cpu_seconds": round(r.cpu_seconds, 1),
+                "precision": job_precision(r.name, precision),
+            }
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(dict(sorted(recorded.items())), indent=1) + "\n")
     print(f"training times recorded in {path}")
@@ -163,8 +185,12 @@ def _book_execute(args: argparse.Namespace) -> int:
     if not toc.is_file():
         raise FileNotFoundError(f"{toc} not found: run 'book execute' in the book's repository (or pass --root)")
     profile = args.settings.profile
-    chapters = [root / f"{entry['file']}.ipynb" for part in yaml.safe_load(toc.read_text())["parts"]
-                for entry in part["chapters"] if entry["file"].startswith("notebooks/")]  # fmt: skip
+    chapters = [
+        root / f"{entry['file']}.ipynb"
+        for part in yaml.safe_load(toc.read_text())["parts"]
+        for entry in part["chapters"]
+        if entry["file"].startswith("notebooks/")
+    ]
     if args.chapters:
         unknown = sorted(set(args.chapters) - {c.stem for c in chapters})
         if unknown:
@@ -185,8 +211,15 @@ def _book_execute(args: argparse.Namespace) -> int:
     from .paths import cache_dir
 
     fingerprint = None if args.force else runner.build_fingerprint(profile, cache_dir())
-    runs = runner.execute_chapters(chapters, out_dir / "notebooks", jobs=args.jobs, previous=previous, last=last,
-                                   stall_s=args.stall_seconds, fingerprint=fingerprint)  # fmt: skip
+    runs = runner.execute_chapters(
+        chapters,
+        out_dir / "notebooks",
+        jobs=args.jobs,
+        previous=previous,
+        last=last,
+        stall_s=args.stall_seconds,
+        fingerprint=fingerprint,
+    )
     record = runner.timings_record(runs, profile, time.monotonic() - start)
     if not args.chapters:
         timings_path.write_text(json.dumps(record, indent=1))
@@ -204,8 +237,9 @@ def _book_execute(args: argparse.Namespace) -> int:
     return 0
 
 
-def _trained_model(name: str, dataset, profile: str, device: str | None, flow_options: dict | None = None,
-                   flow_tokenizer: str = "rvq"):  # fmt: skip
+def _trained_model(
+    name: str, dataset, profile: str, device: str | None, flow_options: dict | None = None, flow_tokenizer: str = "rvq"
+):
     """The cached model ``name`` of the book for this dataset and profile (trained on first use).
 
     ``flow_options`` (DisCoRD only) override the profile's decoder config, e.g. ``{"prediction": "x"}``;
@@ -246,8 +280,7 @@ def _generate(args: argparse.Namespace) -> int:
     _check_generation_lengths(lengths, profile)
     _check_output(args.out, args.force, "--out")  # before any training or sampling
     with _probe_then_run():
-        _announce_training(profile, ["t2m/dynamic"] + (["discord/vq"] if args.decoder == "discord" else []),
-                           args.data)  # fmt: skip
+        _announce_training(profile, ["t2m/dynamic"] + (["discord/vq"] if args.decoder == "discord" else []), args.data)
         dataset = _command_dataset(args.data, profile)
         pipe = text_to_motion_for_dataset(dataset, profile, device=args.device)
         decoder = None
@@ -311,8 +344,10 @@ def _check_generation_lengths(lengths: list[int], profile: str) -> None:
     longest = diffusion_training_config(profile, num_codes=2).max_tokens * FRAMES_PER_TOKEN
     for n in lengths:
         if n > longest:
-            raise ValueError(f"--length {n} exceeds the longest motion the model was trained on, {longest} frames "
-                             f"({longest / 20:.1f} s at 20 fps); give several texts for a longer motion")  # fmt: skip
+            raise ValueError(
+                f"--length {n} exceeds the longest motion the model was trained on, {longest} frames "
+                f"({longest / 20:.1f} s at 20 fps); give several texts for a longer motion"
+            )
 
 
 def _check_output(path: Path, force: bool, option: str) -> None:
@@ -323,8 +358,10 @@ def _check_output(path: Path, force: bool, option: str) -> None:
     if path.is_dir():
         raise ValueError(f"{option} {path} is a folder; give a file name ending in {', '.join(MOTION_SUFFIXES)}")
     if path.suffix.lower() not in MOTION_SUFFIXES:
-        raise ValueError(f"{option} {str(path)!r} has an unknown extension {path.suffix.lower()!r}; expected one of "
-                         f"{', '.join(MOTION_SUFFIXES)}")  # fmt: skip
+        raise ValueError(
+            f"{option} {str(path)!r} has an unknown extension {path.suffix.lower()!r}; expected one of "
+            f"{', '.join(MOTION_SUFFIXES)}"
+        )
     if path.exists() and not force:
         raise ValueError(f"{path} exists; pass --force to replace it")
     _check_writable_folder(path.parent, option)
@@ -347,8 +384,9 @@ def _check_cache_writable() -> None:
     except OSError as err:
         raise ValueError(f"cannot create the cache folder ($MOTIONLAB_HOME): {err}") from None
     if not os.access(root, os.W_OK | os.X_OK):
-        raise ValueError(f"cannot write to the cache {root} ($MOTIONLAB_HOME); point MOTIONLAB_HOME at a "
-                         "writable folder")  # fmt: skip
+        raise ValueError(
+            f"cannot write to the cache {root} ($MOTIONLAB_HOME); point MOTIONLAB_HOME at a writable folder"
+        )
 
 
 def _convert(args: argparse.Namespace) -> int:
@@ -358,8 +396,9 @@ def _convert(args: argparse.Namespace) -> int:
         print(f"error: {args.dst} exists; pass --force to replace it", file=sys.stderr)
         return 2
     _check_output(args.dst, args.force, "the output")
-    path = convert_motion(args.src, args.dst, mapping=args.mapping, scale=args.scale, up=args.up,
-                          start=args.start, end=args.end)  # fmt: skip
+    path = convert_motion(
+        args.src, args.dst, mapping=args.mapping, scale=args.scale, up=args.up, start=args.start, end=args.end
+    )
     print(path)
     return 0
 
@@ -428,48 +467,77 @@ def _check_evaluation_size(config) -> None:
     need, what = estimated_memory(config)
     have = available_memory()
     if have is not None and need > 0.8 * have:
-        raise ValueError(f"{what} would need about {need / 2**30:.1f} GiB of memory, more than the "
-                         f"{have / 2**30:.1f} GiB available here; ask for fewer")  # fmt: skip
+        raise ValueError(
+            f"{what} would need about {need / 2**30:.1f} GiB of memory, more than the "
+            f"{have / 2**30:.1f} GiB available here; ask for fewer"
+        )
 
 
 def _evaluation_config(args: argparse.Namespace, repeats: int):
     """The task's config from the parsed options (the config validates them)."""
     from .evaluation import FLOW_OPTIONS, MultiMotionConfig, ReconstructionConfig, TextToMotionConfig
 
-    common = dict(split=args.split, repeats=repeats, seed=args.seed, decoder=args.decoder, steps=args.steps,
-                  solver=args.solver)  # fmt: skip
+    common = dict(
+        split=args.split, repeats=repeats, seed=args.seed, decoder=args.decoder, steps=args.steps, solver=args.solver
+    )
     if args.task == "reconstruction":
         flow = {name: getattr(args, name) for name in FLOW_OPTIONS}
         return ReconstructionConfig(tokenizer=args.tokenizer, limit=args.limit, **flow, **common)
     sampling = dict(num_steps=args.num_steps, guidance_scale=args.guidance_scale)
     if args.task == "t2m":
-        return TextToMotionConfig(limit=args.limit, multimodality=args.multimodality, mm_texts=args.mm_texts,
-                                  mm_repeats=args.mm_repeats, **sampling, **common)  # fmt: skip
+        return TextToMotionConfig(
+            limit=args.limit,
+            multimodality=args.multimodality,
+            mm_texts=args.mm_texts,
+            mm_repeats=args.mm_repeats,
+            **sampling,
+            **common,
+        )
     methods = tuple(m.strip() for m in args.methods.split(","))
-    return MultiMotionConfig(methods=methods, instances=args.instances, actions=args.actions, T_s=args.T_s,
-                             **sampling, **common)  # fmt: skip
+    return MultiMotionConfig(
+        methods=methods, instances=args.instances, actions=args.actions, T_s=args.T_s, **sampling, **common
+    )
 
 
 def _add_flow_training_options(parser: argparse.ArgumentParser) -> None:
     """Which DisCoRD decoder: options fixed at training time (default: the profile's)."""
-    parser.add_argument("--predict", dest="prediction", choices=["v", "x"], default=None,
-                        help="DisCoRD: the network predicts the velocity (v, the paper's) or the clean motion (x)")
-    parser.add_argument("--normalization", choices=["std", "feat_bias"], default=None,
-                        help="DisCoRD: plain std, or the public code's root/contact weighting (feat_bias)")
-    parser.add_argument("--time-distribution", dest="time_distribution", choices=["uniform", "logit_normal"],
-                        default=None, help="DisCoRD training times (default: the profile's)")  # fmt: skip
+    parser.add_argument(
+        "--predict",
+        dest="prediction",
+        choices=["v", "x"],
+        default=None,
+        help="DisCoRD: the network predicts the velocity (v, the paper's) or the clean motion (x)",
+    )
+    parser.add_argument(
+        "--normalization",
+        choices=["std", "feat_bias"],
+        default=None,
+        help="DisCoRD: plain std, or the public code's root/contact weighting (feat_bias)",
+    )
+    parser.add_argument(
+        "--time-distribution",
+        dest="time_distribution",
+        choices=["uniform", "logit_normal"],
+        default=None,
+        help="DisCoRD training times (default: the profile's)",
+    )
 
 
 def _add_evaluate(sub) -> None:
     """``evaluate TASK``: one sub-command per paper table, sharing the data, model and output options."""
     profiles = ["smoke", "laptop", "full"]
     common = argparse.ArgumentParser(add_help=False)
-    common.add_argument("--profile", choices=profiles, default=None,
-                        help="model size (default: $MOTIONLAB_PROFILE or laptop)")  # fmt: skip
+    common.add_argument(
+        "--profile", choices=profiles, default=None, help="model size (default: $MOTIONLAB_PROFILE or laptop)"
+    )
     common.add_argument("--data", default=None, help="a HumanML3D/KIT-ML folder (default: the embedded dataset)")
     common.add_argument("--device", default=None, help="cpu, cuda, cuda:1 ... (default: CUDA when present)")
-    common.add_argument("--repeats", type=int, default=None,
-                        help="evaluations for the 95%% intervals (default: 2 smoke, 5 laptop, 20 full)")  # fmt: skip
+    common.add_argument(
+        "--repeats",
+        type=int,
+        default=None,
+        help="evaluations for the 95%% intervals (default: 2 smoke, 5 laptop, 20 full)",
+    )
     common.add_argument("--seed", type=int, default=0, help="seeds every random draw (default: 0)")
     common.add_argument("--split", choices=["train", "val", "test"], default="test", help="(default: test)")
     common.add_argument("--json", type=Path, default=None, help="also write the table to this .json file")
@@ -481,45 +549,85 @@ def _add_evaluate(sub) -> None:
     sampling.add_argument("--num-steps", type=int, default=None, help="diffusion sampling steps (default: all T)")
     sampling.add_argument("--guidance-scale", type=float, default=None, help="classifier-free guidance s")
 
-    evaluate = sub.add_parser("evaluate", help="the papers' tables with 95%% CIs: reconstruction, t2m, multi",
-                              description="Evaluate the book's cached models (trained on first use) and print a "
-                                          "paper-style Markdown table, mean ± 95% half-width per cell.")  # fmt: skip
+    evaluate = sub.add_parser(
+        "evaluate",
+        help="the papers' tables with 95%% CIs: reconstruction, t2m, multi",
+        description="Evaluate the book's cached models (trained on first use) and print a "
+        "paper-style Markdown table, mean ± 95% half-width per cell.",
+    )
     tasks = evaluate.add_subparsers(dest="task", required=True, metavar="TASK")
-    rec = tasks.add_parser("reconstruction", parents=[common, flow], help="DisCoRD Table 1: tokens -> decoded motion",
-                           description="Ground truth -> tokens -> decoded motion: FID, MPJPE, sJPE, Noise and "
-                                       "Static sJPE. The feed-forward decoder is deterministic (one run).")  # fmt: skip
-    rec.add_argument("--decoder", choices=["vq", "rvq", "discord"], default="discord",
-                     help="a tokenizer's feed-forward decoder, or discord: feed-forward and DisCoRD rows")  # fmt: skip
-    rec.add_argument("--tokenizer", choices=["vq", "rvq"], default=None,
-                     help="with --decoder discord: whose tokens DisCoRD decodes (default: rvq)")  # fmt: skip
+    rec = tasks.add_parser(
+        "reconstruction",
+        parents=[common, flow],
+        help="DisCoRD Table 1: tokens -> decoded motion",
+        description="Ground truth -> tokens -> decoded motion: FID, MPJPE, sJPE, Noise and "
+        "Static sJPE. The feed-forward decoder is deterministic (one run).",
+    )
+    rec.add_argument(
+        "--decoder",
+        choices=["vq", "rvq", "discord"],
+        default="discord",
+        help="a tokenizer's feed-forward decoder, or discord: feed-forward and DisCoRD rows",
+    )
+    rec.add_argument(
+        "--tokenizer",
+        choices=["vq", "rvq"],
+        default=None,
+        help="with --decoder discord: whose tokens DisCoRD decodes (default: rvq)",
+    )
     rec.add_argument("--limit", type=int, default=None, help="score only the first K clips of the split")
     _add_flow_training_options(rec)
-    rec.add_argument("--temperature", type=float, default=None,
-                     help="DisCoRD start-noise scale (default: the profile's; the paper samples at 1)")  # fmt: skip
-    rec.add_argument("--spacing", choices=["uniform", "data_dense"], default=None,
-                     help="DisCoRD time grid (default: the profile's)")  # fmt: skip
-    rec.add_argument("--final-prediction", dest="final_prediction", action="store_true", default=None,
-                     help="x-prediction decoders: return the network's x̂1 at the last step")  # fmt: skip
+    rec.add_argument(
+        "--temperature",
+        type=float,
+        default=None,
+        help="DisCoRD start-noise scale (default: the profile's; the paper samples at 1)",
+    )
+    rec.add_argument(
+        "--spacing", choices=["uniform", "data_dense"], default=None, help="DisCoRD time grid (default: the profile's)"
+    )
+    rec.add_argument(
+        "--final-prediction",
+        dest="final_prediction",
+        action="store_true",
+        default=None,
+        help="x-prediction decoders: return the network's x̂1 at the last step",
+    )
 
-    t2m = tasks.add_parser("t2m", parents=[common, flow, sampling], help="text to motion: R-precision, FID, ...",
-                           description="The text-to-motion protocol: R-precision top 1-3, FID, MM-Dist, "
-                                       "Diversity (+ MultiModality) of the diffusion model and of the real "
-                                       "motions.")  # fmt: skip
-    t2m.add_argument("--decoder", choices=["vq", "discord"], default="vq",
-                     help="decode the generated VQ tokens with the VQ decoder or DisCoRD (default: vq)")  # fmt: skip
+    t2m = tasks.add_parser(
+        "t2m",
+        parents=[common, flow, sampling],
+        help="text to motion: R-precision, FID, ...",
+        description="The text-to-motion protocol: R-precision top 1-3, FID, MM-Dist, "
+        "Diversity (+ MultiModality) of the diffusion model and of the real "
+        "motions.",
+    )
+    t2m.add_argument(
+        "--decoder",
+        choices=["vq", "discord"],
+        default="vq",
+        help="decode the generated VQ tokens with the VQ decoder or DisCoRD (default: vq)",
+    )
     t2m.add_argument("--limit", type=int, default=None, help="use only the first K clips (K >= 32)")
     t2m.add_argument("--multimodality", action="store_true", help="also MultiModality (slow)")
     t2m.add_argument("--mm-texts", type=int, default=100, help="texts for MultiModality (default: 100)")
     t2m.add_argument("--mm-repeats", type=int, default=30, help="generations per text (default: 30)")
 
-    multi = tasks.add_parser("multi", parents=[common, flow, sampling], help="M2D2M multi-motion: TPS vs baselines",
-                             description="Multi-action instances from the split's single-action clips; "
-                                         "per-action and transition metrics (FID, Diversity, Jerk).")  # fmt: skip
-    multi.add_argument("--methods", default="tps,independent",
-                       help="comma-separated, of tps, independent, separate, slerp, handshake "
-                            "(default: tps,independent)")  # fmt: skip
-    multi.add_argument("--instances", type=int, default=None,
-                       help="multi-action instances (default: as many as the pool covers once)")  # fmt: skip
+    multi = tasks.add_parser(
+        "multi",
+        parents=[common, flow, sampling],
+        help="M2D2M multi-motion: TPS vs baselines",
+        description="Multi-action instances from the split's single-action clips; "
+        "per-action and transition metrics (FID, Diversity, Jerk).",
+    )
+    multi.add_argument(
+        "--methods",
+        default="tps,independent",
+        help="comma-separated, of tps, independent, separate, slerp, handshake (default: tps,independent)",
+    )
+    multi.add_argument(
+        "--instances", type=int, default=None, help="multi-action instances (default: as many as the pool covers once)"
+    )
     multi.add_argument("--actions", type=int, default=4, help="actions per instance (default: 4)")
     multi.add_argument("--T-s", dest="T_s", type=int, default=None, help="TPS switch step (default: 0.9 T)")
     multi.add_argument("--decoder", choices=["vq", "discord"], default="vq", help="token decoder (default: vq)")
@@ -539,13 +647,21 @@ def _settings(args: argparse.Namespace):
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="motionlab", description=__doc__.splitlines()[0])
-    parser.add_argument("--threads", type=int, default=None,
-                        help="torch CPU threads (default: $MOTIONLAB_THREADS, else torch's choice); 1 is often "
-                             "faster when other programs share the CPU")  # fmt: skip
-    parser.add_argument("--precision", choices=["auto", "fp32", "bf16"], default=None,
-                        help="numeric precision of training and sampling (default: $MOTIONLAB_PRECISION, else auto: "
-                             "bf16 where the CPU has bf16 matrix units (AMX, or AVX512-BF16 on AMD) or the GPU "
-                             "supports it, else fp32); metrics, losses and weights stay fp32")  # fmt: skip
+    parser.add_argument(
+        "--threads",
+        type=int,
+        default=None,
+        help="torch CPU threads (default: $MOTIONLAB_THREADS, else torch's choice); 1 is often "
+        "faster when other programs share the CPU",
+    )
+    parser.add_argument(
+        "--precision",
+        choices=["auto", "fp32", "bf16"],
+        default=None,
+        help="numeric precision of training and sampling (default: $MOTIONLAB_PRECISION, else auto: "
+        "bf16 where the CPU has bf16 matrix units (AMX, or AVX512-BF16 on AMD) or the GPU "
+        "supports it, else fp32); metrics, losses and weights stay fp32",
+    )
     sub = parser.add_subparsers(dest="command", required=True)
 
     data = sub.add_parser("data", help="datasets: generate the embedded one, check a folder, convert BVH takes")
@@ -556,24 +672,33 @@ def build_parser() -> argparse.ArgumentParser:
     check.set_defaults(func=_data_check)
 
     make = data_sub.add_parser("make-embedded", help="generate the embedded procedural dataset")
-    make.add_argument("--profile", choices=["smoke", "laptop", "full"], default=None,
-                      help="dataset size (default: $MOTIONLAB_PROFILE or laptop)")  # fmt: skip
+    make.add_argument(
+        "--profile",
+        choices=["smoke", "laptop", "full"],
+        default=None,
+        help="dataset size (default: $MOTIONLAB_PROFILE or laptop)",
+    )
     make.add_argument("--seed", type=int, default=0)
     make.add_argument("--out", type=Path, default=None, help="write here instead of the cache (must not exist)")
     make.add_argument("--clips", type=int, default=None, help="number of clips (needs --out)")
     make.set_defaults(func=_data_make_embedded)
 
     from_bvh = data_sub.add_parser(
-        "from-bvh", help="convert a folder of BVH takes into a HumanML3D-layout dataset (resumable)",
+        "from-bvh",
+        help="convert a folder of BVH takes into a HumanML3D-layout dataset (resumable)",
         description="Your own mocap as a dataset the book trains on (train ... --data DATASET): every .bvh in "
-                    "FOLDER becomes new_joints, new_joint_vecs and texts; then splits and Mean/Std. A re-run "
-                    "converts only new or changed takes. Skipped takes are listed with the reason.",
-    )  # fmt: skip
+        "FOLDER becomes new_joints, new_joint_vecs and texts; then splits and Mean/Std. A re-run "
+        "converts only new or changed takes. Skipped takes are listed with the reason.",
+    )
     from_bvh.add_argument("folder", type=Path, help="folder with the .bvh takes (not searched recursively)")
     from_bvh.add_argument("--out", type=Path, required=True, help="the dataset folder to write (or resume)")
-    from_bvh.add_argument("--captions", type=Path, default=None,
-                          help="CSV with columns take,caption[,start,end] (crop in frames at 20 fps); "
-                               "default: captions from the file names")  # fmt: skip
+    from_bvh.add_argument(
+        "--captions",
+        type=Path,
+        default=None,
+        help="CSV with columns take,caption[,start,end] (crop in frames at 20 fps); "
+        "default: captions from the file names",
+    )
     from_bvh.add_argument("--mapping", default="cmu", choices=["cmu", "t2m"], help="joint names of the BVH rig")
     from_bvh.add_argument("--scale", type=float, default=None, help="BVH units to metres (default: the rig's)")
     from_bvh.add_argument("--up", choices=["y", "z"], default=None, help="up axis of the BVH (default: y)")
@@ -582,26 +707,45 @@ def build_parser() -> argparse.ArgumentParser:
     from_bvh.set_defaults(func=_data_from_bvh)
 
     train = sub.add_parser(
-        "train", help="train a model of the book (or load it if already trained); resumable",
+        "train",
+        help="train a model of the book (or load it if already trained); resumable",
         description="Train a model of the book once and cache it (or load it if already trained). Ctrl-C stops; "
-                    "the same command resumes from the last checkpoint. 'discord' is the DisCoRD decoder of RVQ "
-                    "tokens (DisCoRD Table 1, `evaluate reconstruction`); `generate`/`evaluate t2m|multi "
-                    "--decoder discord` use a second DisCoRD decoder, of the diffusion model's VQ tokens: "
-                    "`train discord --tokenizer vq` trains that one.",
-    )  # fmt: skip
-    train.add_argument("model", choices=["vq", "rvq", "evaluator", "discord", "diffusion", "book"],
-                       help="which model; 'book': every model the chapters load, several at a time")
-    train.add_argument("--jobs", type=int, default=None,
-                       help="with 'book': models trained at once, one process and one torch thread each (default 2)")
-    train.add_argument("--record", action="store_true",
-                       help="with 'book', in the book's repository: also merge the trained models' times into "
-                            "book/data/build_times/<profile>-training.json (what the intro's chapter map reads); every "
-                            "run there merges them into _build/executed/<profile>/training.json")
-    train.add_argument("--tokenizer", choices=["rvq", "vq"], default=None,
-                       help="discord only: decode RVQ tokens (default; DisCoRD Table 1) or the VQ tokens that "
-                            "generate --decoder discord needs")  # fmt: skip
-    train.add_argument("--profile", choices=["smoke", "laptop", "full"], default=None,
-                       help="model size (default: $MOTIONLAB_PROFILE or laptop)")  # fmt: skip
+        "the same command resumes from the last checkpoint. 'discord' is the DisCoRD decoder of RVQ "
+        "tokens (DisCoRD Table 1, `evaluate reconstruction`); `generate`/`evaluate t2m|multi "
+        "--decoder discord` use a second DisCoRD decoder, of the diffusion model's VQ tokens: "
+        "`train discord --tokenizer vq` trains that one.",
+    )
+    train.add_argument(
+        "model",
+        choices=["vq", "rvq", "evaluator", "discord", "diffusion", "book"],
+        help="which model; 'book': every model the chapters load, several at a time",
+    )
+    train.add_argument(
+        "--jobs",
+        type=int,
+        default=None,
+        help="with 'book': models trained at once, one process and one torch thread each (default 2)",
+    )
+    train.add_argument(
+        "--record",
+        action="store_true",
+        help="with 'book', in the book's repository: also merge the trained models' times into "
+        "book/data/build_times/<profile>-training.json (what the intro's chapter map reads); every "
+        "run there merges them into _build/executed/<profile>/training.json",
+    )
+    train.add_argument(
+        "--tokenizer",
+        choices=["rvq", "vq"],
+        default=None,
+        help="discord only: decode RVQ tokens (default; DisCoRD Table 1) or the VQ tokens that "
+        "generate --decoder discord needs",
+    )
+    train.add_argument(
+        "--profile",
+        choices=["smoke", "laptop", "full"],
+        default=None,
+        help="model size (default: $MOTIONLAB_PROFILE or laptop)",
+    )
     train.add_argument("--data", default=None, help="a HumanML3D/KIT-ML folder (default: the embedded dataset)")
     train.add_argument("--device", default=None, help="cpu, cuda, cuda:1 ... (default: CUDA when present)")
     _add_flow_training_options(train)
@@ -610,51 +754,83 @@ def build_parser() -> argparse.ArgumentParser:
     book = sub.add_parser("book", help="build steps of the book (run in its repository); `make book` calls them")
     book_sub = book.add_subparsers(dest="step", required=True)
     execute = book_sub.add_parser(
-        "execute", help="execute the chapters in parallel (a stalled kernel is restarted) and stage the site",
+        "execute",
+        help="execute the chapters in parallel (a stalled kernel is restarted) and stage the site",
         description="Execute every chapter of book/_toc.yml into _build/executed/<profile>/notebooks, several at a "
-                    "time, each in its own kernel; then stage _build/site-src, which Jupyter Book renders without "
-                    "executing the chapters again. Run `motionlab train book` first so the chapters only load models.",
-    )  # fmt: skip
-    execute.add_argument("--profile", choices=["smoke", "laptop", "full"], default=None,
-                         help="run profile (default: $MOTIONLAB_PROFILE or laptop)")  # fmt: skip
+        "time, each in its own kernel; then stage _build/site-src, which Jupyter Book renders without "
+        "executing the chapters again. Run `motionlab train book` first so the chapters only load models.",
+    )
+    execute.add_argument(
+        "--profile",
+        choices=["smoke", "laptop", "full"],
+        default=None,
+        help="run profile (default: $MOTIONLAB_PROFILE or laptop)",
+    )
     execute.add_argument("--jobs", type=int, default=2, help="chapters executed at once (default 2)")
     execute.add_argument("--chapters", nargs="+", default=None, help="only these chapters (no staging)")
-    execute.add_argument("--force", action="store_true",
-                         help="execute every chapter, also those whose notebook, library and models are unchanged "
-                              "since their last successful execution (kept by default)")
+    execute.add_argument(
+        "--force",
+        action="store_true",
+        help="execute every chapter, also those whose notebook, library and models are unchanged "
+        "since their last successful execution (kept by default)",
+    )
     execute.add_argument("--root", default=".", help="the book's repository (default: the current folder)")
-    execute.add_argument("--stall-seconds", type=float, default=180.0,
-                         help="a running cell whose kernel sends nothing and uses no CPU this long is restarted")
-    execute.add_argument("--record", action="store_true",
-                         help="also write the timings to book/data/build_times/<profile>.json (committed)")
+    execute.add_argument(
+        "--stall-seconds",
+        type=float,
+        default=180.0,
+        help="a running cell whose kernel sends nothing and uses no CPU this long is restarted",
+    )
+    execute.add_argument(
+        "--record",
+        action="store_true",
+        help="also write the timings to book/data/build_times/<profile>.json (committed)",
+    )
     execute.set_defaults(func=_book_execute)
 
     gen = sub.add_parser(
-        "generate", help="text to motion; several texts make one multi-action motion (TPS)",
+        "generate",
+        help="text to motion; several texts make one multi-action motion (TPS)",
         description="Generate a motion from text with the book's discrete-diffusion model (trained on first use). "
-                    "Several texts are generated jointly with Two-Phase Sampling.",
-    )  # fmt: skip
+        "Several texts are generated jointly with Two-Phase Sampling.",
+    )
     gen.add_argument("texts", nargs="+", help='one or more action descriptions, e.g. "a person waves"')
-    gen.add_argument("--length", type=int, nargs="+", default=[120],
-                     help="frames at 20 fps, a multiple of 4: one for all texts or one per text")  # fmt: skip
-    gen.add_argument("--decoder", choices=["vq", "discord"], default="vq",
-                     help="token decoder (default: vq); discord: the DisCoRD decoder of the VQ tokens (not the RVQ "
-                          "one of `train discord`; `train discord --tokenizer vq` trains it ahead)")  # fmt: skip
-    gen.add_argument("--out", type=Path, required=True,
-                     help="output .npy (features), .bvh (fixed bone lengths) or .html; never replaced without "
-                          "--force")  # fmt: skip
+    gen.add_argument(
+        "--length",
+        type=int,
+        nargs="+",
+        default=[120],
+        help="frames at 20 fps, a multiple of 4: one for all texts or one per text",
+    )
+    gen.add_argument(
+        "--decoder",
+        choices=["vq", "discord"],
+        default="vq",
+        help="token decoder (default: vq); discord: the DisCoRD decoder of the VQ tokens (not the RVQ "
+        "one of `train discord`; `train discord --tokenizer vq` trains it ahead)",
+    )
+    gen.add_argument(
+        "--out",
+        type=Path,
+        required=True,
+        help="output .npy (features), .bvh (fixed bone lengths) or .html; never replaced without --force",
+    )
     gen.add_argument("--force", action="store_true", help="replace an existing --out file")
-    gen.add_argument("--T-s", dest="T_s", type=int, default=None,
-                     help="TPS switch step, with two or more texts (default: 0.9 T)")  # fmt: skip
+    gen.add_argument(
+        "--T-s", dest="T_s", type=int, default=None, help="TPS switch step, with two or more texts (default: 0.9 T)"
+    )
     gen.add_argument("--seed", type=int, default=0)
     gen.add_argument("--profile", choices=["smoke", "laptop", "full"], default=None)
     gen.add_argument("--data", default=None, help="a HumanML3D/KIT-ML folder (default: the embedded dataset)")
     gen.add_argument("--device", default=None)
     gen.set_defaults(func=_generate)
 
-    convert = sub.add_parser("convert", help="convert motion between .bvh, .npy (HumanML3D features) and .html",
-                             description="Mocap (BVH) becomes HumanML3D features on the t2m skeleton at 20 fps; "
-                                         "features or joints become BVH or a standalone HTML animation.")  # fmt: skip
+    convert = sub.add_parser(
+        "convert",
+        help="convert motion between .bvh, .npy (HumanML3D features) and .html",
+        description="Mocap (BVH) becomes HumanML3D features on the t2m skeleton at 20 fps; "
+        "features or joints become BVH or a standalone HTML animation.",
+    )
     convert.add_argument("src", type=Path, help="input .bvh or .npy (features (T, 263) or joints (T, 22, 3))")
     convert.add_argument("dst", type=Path, help="output .npy, .bvh or .html")
     convert.add_argument("--mapping", default="cmu", choices=["cmu", "t2m"], help="joint-name mapping of a BVH input")

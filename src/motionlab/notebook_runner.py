@@ -117,8 +117,14 @@ def _make_client(nb, cwd: Path, previous: dict[str, float], default_timeout_s: f
         def remove_output_hook(self, msg_id, hook) -> None:
             return None
 
-    client = WatchedClient(nb, kernel_name="python3", timeout_func=cell_timeout, allow_errors=False,
-                           resources={"metadata": {"path": str(cwd)}}, record_timing=True)  # fmt: skip
+    client = WatchedClient(
+        nb,
+        kernel_name="python3",
+        timeout_func=cell_timeout,
+        allow_errors=False,
+        resources={"metadata": {"path": str(cwd)}},
+        record_timing=True,
+    )
 
     def started(cell, cell_index, **_):
         client.running_cell, client.last_message = cell.get("id", str(cell_index)), time.monotonic()
@@ -146,8 +152,10 @@ async def _watch(client, stall_s: float, poll_s: float) -> None:
         span = now - window[0][0]
         idle = span >= stall_s and (cpu - window[0][1]) < _IDLE_CPU_FRACTION * span
         if silent and idle:
-            raise ChapterStalled(f"cell {client.running_cell}: no message and no CPU from the kernel for "
-                                 f"{now - client.last_message:.0f} s")  # fmt: skip
+            raise ChapterStalled(
+                f"cell {client.running_cell}: no message and no CPU from the kernel for "
+                f"{now - client.last_message:.0f} s"
+            )
 
 
 async def _execute_once(client, stall_s: float, poll_s: float) -> None:
@@ -257,8 +265,14 @@ def _chapter_fingerprint(source: Path, fingerprint: str) -> str:
 
 def _execute_star(args: tuple) -> ChapterRun:
     source, out_path, previous, stall_s, attempts = args
-    return execute_chapter(source, out_path, previous=previous, stall_s=stall_s, attempts=attempts,
-                           log=lambda text: print(text, flush=True))  # fmt: skip
+    return execute_chapter(
+        source,
+        out_path,
+        previous=previous,
+        stall_s=stall_s,
+        attempts=attempts,
+        log=lambda text: print(text, flush=True),
+    )
 
 
 def runs_last(source: str | Path) -> bool:
@@ -313,15 +327,23 @@ def execute_chapters(
         mark = _chapter_fingerprint(src, fingerprint)
         if before.get("fingerprint") != mark:
             return None
-        return ChapterRun(src.stem, "ok", float(before.get("seconds", 0.0)), int(before.get("attempts", 1)),
-                          cell_seconds=dict(before.get("cells", {})), fingerprint=mark, reused=True)  # fmt: skip
+        return ChapterRun(
+            src.stem,
+            "ok",
+            float(before.get("seconds", 0.0)),
+            int(before.get("attempts", 1)),
+            cell_seconds=dict(before.get("cells", {})),
+            fingerprint=mark,
+            reused=True,
+        )
 
     def report(run: ChapterRun) -> None:
         runs.append(run)
         stamp = f"{elapsed_stamp(time.monotonic() - t0)} {run.name}:"
         if run.reused:
-            print(f"{stamp} up to date (notebook, library and models unchanged since it last ran)", file=out,
-                  flush=True)  # fmt: skip
+            print(
+                f"{stamp} up to date (notebook, library and models unchanged since it last ran)", file=out, flush=True
+            )
             return
         note = f" after {run.attempts} attempts" if run.attempts > 1 else ""
         print(f"{stamp} {run.status} in {run.seconds / 60:.1f} min{note}", file=out, flush=True)
@@ -331,9 +353,10 @@ def execute_chapters(
     paths = [Path(s) for s in sources]
     phases = [longest_first(p for p in paths if p.stem not in last), longest_first(p for p in paths if p.stem in last)]
     context = multiprocessing.get_context("spawn")
-    with native_threads_for_children(env_threads() or 1), ProcessPoolExecutor(
-        jobs, mp_context=context, initializer=interrupt_when_orphaned
-    ) as pool:
+    with (
+        native_threads_for_children(env_threads() or 1),
+        ProcessPoolExecutor(jobs, mp_context=context, initializer=interrupt_when_orphaned) as pool,
+    ):
         for phase in phases:
             executed = any(not r.reused for r in runs)
             kept = {src: up_to_date(src) for src in phase if not (executed and src.stem in last)}
@@ -356,10 +379,18 @@ def timings_record(runs: Sequence[ChapterRun], profile: str, wall_seconds: float
     return {
         "profile": profile,
         "wall_seconds": wall_seconds,
-        **{r.name: {"seconds": r.seconds, "attempts": r.attempts, "events": r.events, "cells": r.cell_seconds,
-                    "status": r.status, "fingerprint": r.fingerprint}
-           for r in runs},
-    }  # fmt: skip
+        **{
+            r.name: {
+                "seconds": r.seconds,
+                "attempts": r.attempts,
+                "events": r.events,
+                "cells": r.cell_seconds,
+                "status": r.status,
+                "fingerprint": r.fingerprint,
+            }
+            for r in runs
+        },
+    }
 
 
 def runs_table(runs: Sequence[ChapterRun]) -> str:
@@ -394,5 +425,16 @@ def stage_site(repo: str | Path, executed_dir: str | Path, stage: str | Path) ->
     return stage
 
 
-__all__ = ["ATTEMPTS", "STALL_S", "ChapterRun", "ChapterStalled", "execute_chapter", "execute_chapters",
-           "load_timings", "runs_last", "runs_table", "stage_site", "timings_record"]  # fmt: skip
+__all__ = [
+    "ATTEMPTS",
+    "STALL_S",
+    "ChapterRun",
+    "ChapterStalled",
+    "execute_chapter",
+    "execute_chapters",
+    "load_timings",
+    "runs_last",
+    "runs_table",
+    "stage_site",
+    "timings_record",
+]

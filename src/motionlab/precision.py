@@ -42,9 +42,24 @@ DEFAULT_PRECISION = "auto"
 
 # oneDNN's CPU ISA levels in increasing order (``ONEDNN_MAX_CPU_ISA`` / ``DNNL_MAX_CPU_ISA`` values); a cap below
 # a level switches its kernels off. ``ALL`` and ``DEFAULT`` mean no cap.
-_ONEDNN_ISA_ORDER = ("SSE41", "AVX", "AVX2", "AVX2_VNNI", "AVX2_VNNI_2", "AVX512_CORE", "AVX512_CORE_VNNI",
-                     "AVX512_CORE_BF16", "AVX10_1_512", "AVX512_CORE_FP16", "AVX512_CORE_AMX", "AVX10_1_512_AMX",
-                     "AVX512_CORE_AMX_FP16", "AVX10_1_512_AMX_FP16", "AVX10_2_512", "AVX10_2_512_AMX_2")  # fmt: skip
+_ONEDNN_ISA_ORDER = (
+    "SSE41",
+    "AVX",
+    "AVX2",
+    "AVX2_VNNI",
+    "AVX2_VNNI_2",
+    "AVX512_CORE",
+    "AVX512_CORE_VNNI",
+    "AVX512_CORE_BF16",
+    "AVX10_1_512",
+    "AVX512_CORE_FP16",
+    "AVX512_CORE_AMX",
+    "AVX10_1_512_AMX",
+    "AVX512_CORE_AMX_FP16",
+    "AVX10_1_512_AMX_FP16",
+    "AVX10_2_512",
+    "AVX10_2_512_AMX_2",
+)
 
 
 @dataclass(frozen=True)
@@ -179,8 +194,9 @@ def network_precision(device: str | torch.device = "cpu") -> str:
     return resolve_precision(None, device)
 
 
-def in_precision(network: Callable[..., torch.Tensor], precision: str,
-                 device: str | torch.device = "cpu") -> Callable[..., torch.Tensor]:  # fmt: skip
+def in_precision(
+    network: Callable[..., torch.Tensor], precision: str, device: str | torch.device = "cpu"
+) -> Callable[..., torch.Tensor]:
     """``network`` called under :func:`autocast` with its output returned in fp32 (``network`` itself for fp32).
 
     What samplers wrap around a network: the state they integrate or sample (an ODE's ``x``, log-probabilities)
@@ -249,6 +265,22 @@ def _to_fp32(value):
     return value
 
 
-__all__ = ["DEFAULT_PRECISION", "PRECISIONS", "RESOLVED", "CPUInfo", "attention_kernel", "autocast", "check_precision",
-           "cpu_bf16_units", "explain_precision", "in_fp32", "in_precision", "network_autocast", "network_precision",
-           "onednn_isa_cap", "read_cpu_info", "requested_precision", "resolve_precision"]  # fmt: skip
+__all__ = [
+    "DEFAULT_PRECISION",
+    "PRECISIONS",
+    "RESOLVED",
+    "CPUInfo",
+    "attention_kernel",
+    "autocast",
+    "check_precision",
+    "cpu_bf16_units",
+    "explain_precision",
+    "in_fp32",
+    "in_precision",
+    "network_autocast",
+    "network_precision",
+    "onednn_isa_cap",
+    "read_cpu_info",
+    "requested_precision",
+    "resolve_precision",
+]

@@ -6,7 +6,7 @@ Every chapter ends by recording what it measured::
     results.record("discord", "sjpe_rf", 0.412, ci=0.013, note="16 Euler steps, 64 clips")
 
 With repeated evaluations, record the mean and the 95% half-width, e.g. from
-``motionlab.metrics.protocol.mean_ci(values)`` -> ``(mean, half_width)``.
+``motionlab.estimate.mean_ci(values)`` -> an ``Estimate`` (which ``record`` takes as the value).
 
 One JSON file per chapter and profile holds the numbers:
 ``$MOTIONLAB_RESULTS/<profile>/<chapter>.json`` if that variable is set, else
@@ -53,6 +53,7 @@ from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 
+from motionlab.estimate import Estimate, format_estimate
 from motionlab.paths import cache_dir
 from motionlab.profiles import get_profile
 
@@ -72,9 +73,8 @@ CHAPTERS = {
 
 _NAME = re.compile(r"^[a-z0-9][a-z0-9_.\-]*$")
 
-HOLDS = "holds"
-FAILS = "does not hold"
-INCONCLUSIVE = "inconclusive"
+from motionlab.report.phrases import FAILS, HOLDS, INCONCLUSIVE  # noqa: E402  (one set of verdicts)
+
 MISSING = "not yet measured"
 VERDICTS = (HOLDS, FAILS, INCONCLUSIVE, MISSING)
 
@@ -107,6 +107,12 @@ class Result:
             text += f" [{_fmt(self.ci[0])}, {_fmt(self.ci[1])}]"
         return f"{text} {self.unit}" if self.unit else text
 
+    @property
+    def estimate(self) -> Estimate:
+        """The value as an :class:`~motionlab.metrics.Estimate` (the larger side of ``ci`` as its half-width)."""
+        half = 0.0 if self.ci is None else max(self.value - self.ci[0], self.ci[1] - self.value, 0.0)
+        return Estimate(self.value, half, 1 if self.ci is None else 2, self.unit)
+
     def describe(self) -> str:
         """``0.412 ± 0.013 mm``: for a reader. The interval is shown only where it has width (a deterministic value,
         or one decoded once, carries none), to two significant digits, with the value rounded to match."""
@@ -115,37 +121,6 @@ class Result:
 
 def _fmt(x: float) -> str:
     return f"{x:.4g}"
-
-
-def _number(x: float, decimals: int | None = None, significant: int = 3) -> str:
-    """``x`` to ``significant`` digits (or ``decimals`` places), without exponents in the usual range."""
-    if decimals is None:
-        size = abs(x)
-        if size == 0:
-            return "0"
-        if size >= 10 ** significant:
-            return f"{x:,.0f}"
-        if size < 1e-3:
-            return f"{x:.{significant - 1}g}"
-        decimals = max(0, significant - 1 - math.floor(math.log10(size)))
-    return f"{x:.{decimals}f}"
-
-
-def format_estimate(value: float, ci: tuple[float, float] | None = None, unit: str | None = None,
-                    significant: int = 3) -> str:
-    """``3.62 ± 0.011``, ``25 (95% CI 3 to 53)`` or ``0.216``: a value with its 95% interval and unit, for reading."""
-    low, high = ci if ci is not None else (value, value)
-    half = max(value - low, high - value)
-    scale = max(abs(value), abs(low), abs(high), 1e-12)
-    if half <= 1e-9 * scale:  # no interval, or one of zero width: nothing to show
-        text = _number(value, significant=significant)
-    else:
-        decimals = min(8, max(0, 1 - math.floor(math.log10(half))))  # two significant digits of the half-width
-        if abs((value - low) - (high - value)) <= 1e-6 * scale:
-            text = f"{_number(value, decimals)} ± {_number(half, decimals)}"
-        else:
-            text = f"{_number(value, decimals)} (95% CI {_number(low, decimals)} to {_number(high, decimals)})"
-    return f"{text} {unit}" if unit else text
 
 
 def results_dir(profile: str | None = None) -> Path:
@@ -196,7 +171,7 @@ def _check_ci(value: float, ci: object) -> tuple[float, float] | None:
 def record(
     chapter: str,
     key: str,
-    value: float,
+    value: float | Estimate,
     ci: float | tuple[float, float] | None = None,
     unit: str | None = None,
     note: str | None = None,
@@ -204,10 +179,16 @@ def record(
 ) -> Result:
     """Store ``chapter/key = value`` for ``profile`` (default: ``$MOTIONLAB_PROFILE``); return it.
 
-    Recording a key again replaces it. ``ci`` is a 95% half-width or a ``(low, high)`` interval. The run's precision
-    (``fp32`` | ``bf16``, :mod:`motionlab.precision`) is stored beside the value.
+    Recording a key again replaces it. ``value`` is a number or an :class:`~motionlab.metrics.Estimate` (its
+    half-width, when it has one, and its unit are the defaults of ``ci`` and ``unit``). ``ci`` is a 95% half-width or a
+    ``(low, high)`` interval. The run's precision (``fp32`` | ``bf16``, :mod:`motionlab.precision`) is stored beside it.
     """
     from motionlab.precision import network_precision  # imports torch: only when a chapter records
+
+    if isinstance(value, Estimate):
+        ci = ci if ci is not None or value.half_width <= 0 else value.half_width
+        unit = unit if unit is not None else value.unit
+        value = value.mean
 
     chapter, key = _check_name("chapter", chapter), _check_name("key", key)
     number = _check_number("value", value)
@@ -216,13 +197,20 @@ def record(
         if text is not None and not isinstance(text, str):
             raise ValueError(f"{arg} must be a string or None, got {type(text).__name__}")
     profile = get_profile(profile)
-    result = Result(chapter, key, number, interval, unit, note, profile,
-                    datetime.now(timezone.utc).isoformat(timespec="seconds"))
+    result = Result(
+        chapter, key, number, interval, unit, note, profile, datetime.now(timezone.utc).isoformat(timespec="seconds")
+    )
 
     path = results_dir(profile) / f"{chapter}.json"
     entries = _read(path)
-    entries[key] = {"value": number, "ci": list(interval) if interval else None, "unit": unit,
-                    "note": note, "recorded_at": result.recorded_at, "precision": network_precision()}  # fmt: skip
+    entries[key] = {
+        "value": number,
+        "ci": list(interval) if interval else None,
+        "unit": unit,
+        "note": note,
+        "recorded_at": result.recorded_at,
+        "precision": network_precision(),
+    }
     _write_atomic(path, {"chapter": chapter, "profile": profile, "results": entries})
     return result
 
@@ -253,8 +241,16 @@ def load_all(profile: str | None = None) -> dict[str, Result]:
         chapter = path.stem
         for key, entry in sorted(_read(path).items()):
             ci = tuple(entry["ci"]) if entry.get("ci") is not None else None
-            out[f"{chapter}/{key}"] = Result(chapter, key, float(entry["value"]), ci, entry.get("unit"),
-                                             entry.get("note"), profile, entry.get("recorded_at", ""))
+            out[f"{chapter}/{key}"] = Result(
+                chapter,
+                key,
+                float(entry["value"]),
+                ci,
+                entry.get("unit"),
+                entry.get("note"),
+                profile,
+                entry.get("recorded_at", ""),
+            )
     return out
 
 
@@ -311,20 +307,30 @@ QUANTITIES: dict[str, tuple[str, str]] = {
     "discord/time_steps2": ("time to decode a batch", "2 steps"),
     "discord/time_steps16": ("time to decode a batch", "16 steps"),
     "discord/time_ff": ("time to decode a batch", "feed-forward decoder"),
-    "discord/noise_sjpe_boundary_share_rf": ("share of Noise sJPE on jerk centred on a token boundary",
-                                             "flow decoder (¼ if the token grid left no trace)"),
-    "discord/noise_sjpe_boundary_share_ff": ("share of Noise sJPE on jerk centred on a token boundary",
-                                             "feed-forward decoder"),
-    "discord/noise_sjpe_extra_at_boundaries": ("Noise sJPE the flow decoder adds over the feed-forward one",
-                                               "on the ¼ of jerk stencils centred on a token boundary"),
-    "discord/noise_sjpe_extra_elsewhere": ("Noise sJPE the flow decoder adds over the feed-forward one",
-                                           "on the other ¾"),
+    "discord/noise_sjpe_boundary_share_rf": (
+        "share of Noise sJPE on jerk centred on a token boundary",
+        "flow decoder (¼ if the token grid left no trace)",
+    ),
+    "discord/noise_sjpe_boundary_share_ff": (
+        "share of Noise sJPE on jerk centred on a token boundary",
+        "feed-forward decoder",
+    ),
+    "discord/noise_sjpe_extra_at_boundaries": (
+        "Noise sJPE the flow decoder adds over the feed-forward one",
+        "on the ¼ of jerk stencils centred on a token boundary",
+    ),
+    "discord/noise_sjpe_extra_elsewhere": (
+        "Noise sJPE the flow decoder adds over the feed-forward one",
+        "on the other ¾",
+    ),
     "discord/joint_jerk_rf": ("mean joint jerk", "flow decoder"),
     "discord/joint_jerk_ff": ("mean joint jerk", "feed-forward decoder"),
     "discord/joint_jerk_gt": ("mean joint jerk", "ground truth"),
     "discord/train_steps": ("training steps", "flow decoder (the paper: 481,896 at batch 768)"),
-    "discord/sjpe_crossing_minutes": ("training minutes at which sJPE falls below the feed-forward decoder's",
-                                      "longest sweep run"),
+    "discord/sjpe_crossing_minutes": (
+        "training minutes at which sJPE falls below the feed-forward decoder's",
+        "longest sweep run",
+    ),
     "discord/longest_run_minutes": ("training minutes", "longest sweep run"),
     "discord/noise_sjpe_steps2": ("Noise sJPE", "2 steps"),
     "discord/noise_sjpe_steps16": ("Noise sJPE", "16 steps"),
@@ -393,8 +399,9 @@ def _relation(a: Result | None, b: Result | None) -> str:
     return "<" if a.value < b.value else ">" if a.value > b.value else "="
 
 
-def describe_values(keys: Sequence[str], recorded: Mapping[str, Result], compare: bool = True,
-                    name: bool = True) -> str:
+def describe_values(
+    keys: Sequence[str], recorded: Mapping[str, Result], compare: bool = True, name: bool = True
+) -> str:
     """Our numbers for ``keys`` as a phrase: ``sJPE: 3.62 ± 0.011 (flow decoder) > 2.57 (feed-forward decoder)``.
 
     Keys of one quantity share its name, each value followed by its condition. With ``compare``, neighbouring values
@@ -429,30 +436,18 @@ def describe_values(keys: Sequence[str], recorded: Mapping[str, Result], compare
 # Rules: how one claim is judged from recorded results
 
 
-def _half_width(r: Result) -> float:
-    """The larger side of a result's 95% interval (0 without one)."""
-    if r.ci is None:
-        return 0.0
-    return max(r.value - r.ci[0], r.ci[1] - r.value, 0.0)
-
-
-def _compare(a: Result, b: Result, holds: bool) -> str:
-    """Verdict of an ordering between two results: "inconclusive" when the 95% interval of their difference,
-    half-width ``sqrt(h_a² + h_b²)`` for independent estimates, contains 0.
+def _compare(a: Result, b: Result, expected: str) -> str:
+    """Verdict of the expectation that ``a`` is ``"lower"`` (or ``"higher"``) than ``b``, by the one rule
+    (:meth:`motionlab.report.Comparison.judge`): "inconclusive" when a side carries an interval and the 95% interval
+    of the difference, half-width ``sqrt(h_a² + h_b²)`` for independent estimates, contains 0.
 
     Not "when their intervals overlap": two 95% intervals can overlap while the difference is clear (for equal
     widths the overlap test works at about the 99.5% level, not 95%). Where both were measured on the same samples,
     a paired difference recorded beside them (a mechanism row) is sharper still.
     """
-    if (a.ci or b.ci) and not clearly_apart(a.value, _half_width(a), b.value, _half_width(b)):
-        return INCONCLUSIVE
-    return HOLDS if holds else FAILS
+    from motionlab.report import compare
 
-
-def clearly_apart(a: float, half_a: float, b: float, half_b: float) -> bool:
-    """Whether two independent estimates (mean, 95% half-width) differ beyond the 95% interval of their
-    difference, half-width ``sqrt(half_a² + half_b²)``: the test the claims table judges orderings with."""
-    return abs(a - b) > math.hypot(half_a, half_b)
+    return compare(a.estimate, b.estimate).judge(expected)
 
 
 def _combine(verdicts: Sequence[str]) -> str:
@@ -475,7 +470,7 @@ class Less:
         return (self.a, self.b)
 
     def judge(self, r: Mapping[str, Result]) -> str:
-        return _compare(r[self.a], r[self.b], r[self.a].value < r[self.b].value)
+        return _compare(r[self.a], r[self.b], "lower")
 
     def describe(self) -> str:
         return f"{self.a} < {self.b}"
@@ -490,7 +485,7 @@ class Greater(Less):
     """``a > b``."""
 
     def judge(self, r: Mapping[str, Result]) -> str:
-        return _compare(r[self.a], r[self.b], r[self.a].value > r[self.b].value)
+        return _compare(r[self.a], r[self.b], "higher")
 
     def describe(self) -> str:
         return f"{self.a} > {self.b}"
@@ -510,7 +505,7 @@ class Between:
 
     def judge(self, r: Mapping[str, Result]) -> str:
         x, lo, hi = r[self.x], r[self.low], r[self.high]
-        return _combine([_compare(lo, x, lo.value < x.value), _compare(x, hi, x.value < hi.value)])
+        return _combine([_compare(lo, x, "lower"), _compare(x, hi, "lower")])
 
     def describe(self) -> str:
         return f"{self.low} < {self.x} < {self.high}"
@@ -531,7 +526,7 @@ class Increasing:
 
     def judge(self, r: Mapping[str, Result]) -> str:
         pairs = zip(self.ordered[:-1], self.ordered[1:], strict=True)
-        return _combine([_compare(r[a], r[b], r[a].value < r[b].value) for a, b in pairs])
+        return _combine([_compare(r[a], r[b], "lower") for a, b in pairs])
 
     def describe(self) -> str:
         return " < ".join(self.ordered)
@@ -640,129 +635,287 @@ class Claim:
 # Why the laptop flow decoder is rough, as measured: where its extra jerk sits, how far its budget is from a crossing.
 _FLOW_BUDGET = (
     Evidence("training steps, and the sweep's longest run", ("discord/train_steps", "discord/longest_run_minutes")),
-    Evidence("when sJPE falls below the feed-forward decoder's (measured if inside the run, else extrapolated in "
-             "log-time)", ("discord/sjpe_crossing_minutes",)),
-    Evidence("where the extra jerk sits: share on the ¼ of jerk stencils centred on a token boundary",
-             ("discord/noise_sjpe_boundary_share_rf", "discord/noise_sjpe_boundary_share_ff",
-              "discord/noise_sjpe_extra_at_boundaries", "discord/noise_sjpe_extra_elsewhere")),
+    Evidence(
+        "when sJPE falls below the feed-forward decoder's (measured if inside the run, else extrapolated in log-time)",
+        ("discord/sjpe_crossing_minutes",),
+    ),
+    Evidence(
+        "where the extra jerk sits: share on the ¼ of jerk stencils centred on a token boundary",
+        (
+            "discord/noise_sjpe_boundary_share_rf",
+            "discord/noise_sjpe_boundary_share_ff",
+            "discord/noise_sjpe_extra_at_boundaries",
+            "discord/noise_sjpe_extra_elsewhere",
+        ),
+    ),
 )
 _JOINT_JERK = (
-    Evidence("mean joint jerk (m/s³): flow decoder, feed-forward decoder, ground truth",
-             ("discord/joint_jerk_rf", "discord/joint_jerk_ff", "discord/joint_jerk_gt")),
+    Evidence(
+        "mean joint jerk (m/s³): flow decoder, feed-forward decoder, ground truth",
+        ("discord/joint_jerk_rf", "discord/joint_jerk_ff", "discord/joint_jerk_gt"),
+    ),
 )
 _STEPS_NOISE = (
-    Evidence("Noise sJPE, 2 → 16 steps (the jitter an evaluation of the field leaves in each frame)",
-             ("discord/noise_sjpe_steps2", "discord/noise_sjpe_steps16")),
+    Evidence(
+        "Noise sJPE, 2 → 16 steps (the jitter an evaluation of the field leaves in each frame)",
+        ("discord/noise_sjpe_steps2", "discord/noise_sjpe_steps16"),
+    ),
 )
 _CPU_TIME = (
-    Evidence("CPU time vs arithmetic, 16 steps ÷ feed-forward (close when time follows FLOPs, as on a busy CPU; "
-             "on a GPU a small batch is bound by kernel-launch latency instead)",
-             ("discord/time_ratio_steps16", "discord/flops_ratio_steps16")),
+    Evidence(
+        "CPU time vs arithmetic, 16 steps ÷ feed-forward (close when time follows FLOPs, as on a busy CPU; "
+        "on a GPU a small batch is bound by kernel-launch latency instead)",
+        ("discord/time_ratio_steps16", "discord/flops_ratio_steps16"),
+    ),
 )
 # The multi-motion generator's seams: smoother than the insides of its actions, before TPS does anything.
 _SEAMS = (
-    Evidence("Jerk inside the generated actions vs at their seams (tokens decoded together) vs actions decoded alone",
-             ("tps/segment_jerk_tps", "tps/jerk_tps", "tps/jerk_separate")),
+    Evidence(
+        "Jerk inside the generated actions vs at their seams (tokens decoded together) vs actions decoded alone",
+        ("tps/segment_jerk_tps", "tps/jerk_tps", "tps/jerk_separate"),
+    ),
 )
 
 CLAIMS: tuple[Claim, ...] = (
     # --- DisCoRD (Cho et al.) ------------------------------------------------------------------
-    Claim("DisCoRD", "Table 1", "Decoding the same tokens with the rectified-flow decoder lowers sJPE.",
-          "MoMask 0.512 → 0.385; T2M-GPT 0.564 → 0.488; KIT-ML MoMask 0.384 → 0.359",
-          Less("discord/sjpe_rf", "discord/sjpe_ff"), mechanism=_FLOW_BUDGET),
-    Claim("DisCoRD", "Fig. 5, Fig. C", "The flow decoder removes frame-wise noise: Noise sJPE falls.",
-          "shown per sample (jerk plots), no table", Less("discord/noise_sjpe_rf", "discord/noise_sjpe_ff"),
-          mechanism=_FLOW_BUDGET),
-    Claim("DisCoRD", "Fig. 5, Fig. B", "The flow decoder restores dynamism lost to quantization: Static sJPE falls.",
-          "shown per sample (jerk plots), no table", Less("discord/static_sjpe_rf", "discord/static_sjpe_ff"),
-          mechanism=_JOINT_JERK),
-    Claim("DisCoRD", "Table 1", "Reconstruction FID improves with the flow decoder.",
-          "MoMask 0.019 → 0.011; T2M-GPT 0.089 → 0.031; MMM 0.097 → 0.020",
-          Less("discord/fid_rf", "discord/fid_ff"), mechanism=_FLOW_BUDGET[:2]),
-    Claim("DisCoRD", "Table 1", "Positional accuracy is not what improves: MPJPE gets worse on HumanML3D.",
-          "MoMask 29.5 → 33.3 mm; T2M-GPT 60.0 → 71.5 mm (KIT-ML MoMask improves: 37.5 → 33.0)",
-          Greater("discord/mpjpe_rf", "discord/mpjpe_ff"), mechanism=_FLOW_BUDGET[:1] + _JOINT_JERK),
-    Claim("DisCoRD", "Table E", "Few steps suffice: FID at 2 steps is close to FID at 16 steps (the paper's steps "
-          "are midpoint grid points: 2 = 2 network evaluations, 16 = 30).",
-          "FID 0.034 (2 steps) vs 0.032 (16 steps)",
-          Within("discord/fid_steps2", "discord/fid_steps16", 0.25), mechanism=_STEPS_NOISE),
-    Claim("DisCoRD", "Fig. 6", "sJPE is more sensitive to the number of steps than FID: fewer steps, higher sJPE.",
-          "sJPE rises as steps drop from 16 to 2 while FID barely moves (plot)",
-          Greater("discord/sjpe_steps2", "discord/sjpe_steps16"), mechanism=_STEPS_NOISE),
-    Claim("DisCoRD", "Table E", "Decoding time grows with the number of steps (midpoint grid points).",
-          "0.016 s (2 steps) → 0.221 s (16) → 1.426 s (100), batch of 32, RTX 4090",
-          Less("discord/time_steps2", "discord/time_steps16"), mechanism=_CPU_TIME),
-    Claim("DisCoRD", "Table E, Fig. 6", "At 16 steps the flow decoder is about as fast as the feed-forward decoder.",
-          "0.221 s vs MoMask 0.244 s on a GPU",
-          Within("discord/time_steps16", "discord/time_ff", 0.5), mechanism=_CPU_TIME),
-    Claim("DisCoRD", "Table 6", "Stacked per-frame projection generalises better than Repeat & Linear to tokens "
-          "not seen in training.", "generation FID 0.032 vs 0.038 (reconstruction FID 0.011 vs 0.011)",
-          Less("projection/heldout_mse_stacked", "projection/heldout_mse_repeat_linear"),
-          mechanism=(Evidence("no generalisation gap to close at this budget: flow-matching loss on held-out vs "
-                              "training clips", ("projection/heldout_fm_stacked", "projection/train_fm_stacked")),
-                     Evidence("the third projection", ("projection/heldout_mse_transposed",)))),
-    Claim("DisCoRD", "Fig. 4", "Frame-wise Gaussian noise shows up as Noise sJPE, not Static sJPE.",
-          "Noise sJPE rises steeply with σ; Static sJPE stays low (plot)",
-          Greater("sjpe/noise_sjpe_high", "sjpe/static_sjpe_high")),
-    Claim("DisCoRD", "Fig. 4", "Noise sJPE grows with the noise level.", "monotone curve over σ (plot)",
-          Increasing(("sjpe/noise_sjpe_low", "sjpe/noise_sjpe_mid", "sjpe/noise_sjpe_high"))),
+    Claim(
+        "DisCoRD",
+        "Table 1",
+        "Decoding the same tokens with the rectified-flow decoder lowers sJPE.",
+        "MoMask 0.512 → 0.385; T2M-GPT 0.564 → 0.488; KIT-ML MoMask 0.384 → 0.359",
+        Less("discord/sjpe_rf", "discord/sjpe_ff"),
+        mechanism=_FLOW_BUDGET,
+    ),
+    Claim(
+        "DisCoRD",
+        "Fig. 5, Fig. C",
+        "The flow decoder removes frame-wise noise: Noise sJPE falls.",
+        "shown per sample (jerk plots), no table",
+        Less("discord/noise_sjpe_rf", "discord/noise_sjpe_ff"),
+        mechanism=_FLOW_BUDGET,
+    ),
+    Claim(
+        "DisCoRD",
+        "Fig. 5, Fig. B",
+        "The flow decoder restores dynamism lost to quantization: Static sJPE falls.",
+        "shown per sample (jerk plots), no table",
+        Less("discord/static_sjpe_rf", "discord/static_sjpe_ff"),
+        mechanism=_JOINT_JERK,
+    ),
+    Claim(
+        "DisCoRD",
+        "Table 1",
+        "Reconstruction FID improves with the flow decoder.",
+        "MoMask 0.019 → 0.011; T2M-GPT 0.089 → 0.031; MMM 0.097 → 0.020",
+        Less("discord/fid_rf", "discord/fid_ff"),
+        mechanism=_FLOW_BUDGET[:2],
+    ),
+    Claim(
+        "DisCoRD",
+        "Table 1",
+        "Positional accuracy is not what improves: MPJPE gets worse on HumanML3D.",
+        "MoMask 29.5 → 33.3 mm; T2M-GPT 60.0 → 71.5 mm (KIT-ML MoMask improves: 37.5 → 33.0)",
+        Greater("discord/mpjpe_rf", "discord/mpjpe_ff"),
+        mechanism=_FLOW_BUDGET[:1] + _JOINT_JERK,
+    ),
+    Claim(
+        "DisCoRD",
+        "Table E",
+        "Few steps suffice: FID at 2 steps is close to FID at 16 steps (the paper's steps "
+        "are midpoint grid points: 2 = 2 network evaluations, 16 = 30).",
+        "FID 0.034 (2 steps) vs 0.032 (16 steps)",
+        Within("discord/fid_steps2", "discord/fid_steps16", 0.25),
+        mechanism=_STEPS_NOISE,
+    ),
+    Claim(
+        "DisCoRD",
+        "Fig. 6",
+        "sJPE is more sensitive to the number of steps than FID: fewer steps, higher sJPE.",
+        "sJPE rises as steps drop from 16 to 2 while FID barely moves (plot)",
+        Greater("discord/sjpe_steps2", "discord/sjpe_steps16"),
+        mechanism=_STEPS_NOISE,
+    ),
+    Claim(
+        "DisCoRD",
+        "Table E",
+        "Decoding time grows with the number of steps (midpoint grid points).",
+        "0.016 s (2 steps) → 0.221 s (16) → 1.426 s (100), batch of 32, RTX 4090",
+        Less("discord/time_steps2", "discord/time_steps16"),
+        mechanism=_CPU_TIME,
+    ),
+    Claim(
+        "DisCoRD",
+        "Table E, Fig. 6",
+        "At 16 steps the flow decoder is about as fast as the feed-forward decoder.",
+        "0.221 s vs MoMask 0.244 s on a GPU",
+        Within("discord/time_steps16", "discord/time_ff", 0.5),
+        mechanism=_CPU_TIME,
+    ),
+    Claim(
+        "DisCoRD",
+        "Table 6",
+        "Stacked per-frame projection generalises better than Repeat & Linear to tokens not seen in training.",
+        "generation FID 0.032 vs 0.038 (reconstruction FID 0.011 vs 0.011)",
+        Less("projection/heldout_mse_stacked", "projection/heldout_mse_repeat_linear"),
+        mechanism=(
+            Evidence(
+                "no generalisation gap to close at this budget: flow-matching loss on held-out vs training clips",
+                ("projection/heldout_fm_stacked", "projection/train_fm_stacked"),
+            ),
+            Evidence("the third projection", ("projection/heldout_mse_transposed",)),
+        ),
+    ),
+    Claim(
+        "DisCoRD",
+        "Fig. 4",
+        "Frame-wise Gaussian noise shows up as Noise sJPE, not Static sJPE.",
+        "Noise sJPE rises steeply with σ; Static sJPE stays low (plot)",
+        Greater("sjpe/noise_sjpe_high", "sjpe/static_sjpe_high"),
+    ),
+    Claim(
+        "DisCoRD",
+        "Fig. 4",
+        "Noise sJPE grows with the noise level.",
+        "monotone curve over σ (plot)",
+        Increasing(("sjpe/noise_sjpe_low", "sjpe/noise_sjpe_mid", "sjpe/noise_sjpe_high")),
+    ),
     # --- M2D2M (Chi et al.) --------------------------------------------------------------------
-    Claim("M2D2M", "Table 1, Fig. 5", "Concatenating real motions makes a jerky transition.",
-          "Jerk: GT concat 1.371 vs GT single 1.192", Greater("tps/jerk_gt_concat", "tps/jerk_gt_single"),
-          mechanism=(Evidence("paired per boundary: the cut against windows inside the two clips it joins",
-                              ("tps/jerk_concat_minus_inside",)),)),
-    Claim("M2D2M", "Table 1", "TPS transitions are smoother than concatenated real motions but not over-smoothed.",
-          "Jerk: GT single 1.192 < M2D2M 1.238 < GT concat 1.371",
-          Between("tps/jerk_tps", "tps/jerk_gt_single", "tps/jerk_gt_concat"), mechanism=_SEAMS),
-    Claim("M2D2M", "Supp. Table 5", "Joint denoising steps smooth the transition compared with independent sampling.",
-          "Jerk: w/o TPS 1.402 → T_s = 90: 1.238", Less("tps/jerk_tps", "tps/jerk_independent"),
-          mechanism=(Evidence("paired per boundary", ("tps/jerk_tps_minus_independent",)),
-                     Evidence("how much the joint phase changes", ("tps/tokens_changed_ts90",)), *_SEAMS)),
-    Claim("M2D2M", "Supp. Table 5", "Fidelity trade-off: individual-motion FID rises as T_s shrinks "
-          "(keys: T_s = 100%, 90%, 50% of T).", "FID 0.196 (T_s=100) < 0.254 (90) < 0.371 (50), T = 100",
-          Increasing(("tps/fid_ts100", "tps/fid_ts90", "tps/fid_ts50")),
-          mechanism=(Evidence("how much the joint phase changes",
-                              ("tps/tokens_changed_ts90", "tps/tokens_changed_ts50")),)),
-    Claim("M2D2M", "Table 6", "Handshake over-smooths: its transition Jerk falls below real single motions.",
-          "Jerk: Handshake 1.097 vs GT single 1.192", Less("tps/jerk_handshake", "tps/jerk_gt_single"),
-          mechanism=_SEAMS),
-    Claim("M2D2M", "Table 6", "SLERP over-smooths even more: transition Jerk below real single motions.",
-          "Jerk: SLERP −3.554 vs GT single 1.192", Less("tps/jerk_slerp", "tps/jerk_gt_single"), mechanism=_SEAMS),
-    Claim("M2D2M", "Table 6", "TPS keeps individual motions more faithful than Handshake.",
-          "individual FID: TPS 0.254 vs Handshake 1.279 (SLERP 1.402)",
-          Less("tps/fid_ts90", "tps/fid_handshake"),
-          mechanism=(Evidence("what the evaluator sees: actions decoded alone (as Handshake's are) vs cut from one "
-                              "decoded sequence (TPS, independent)", ("tps/fid_separate", "tps/fid_ts100")),)),
-    Claim("M2D2M", "Table 5", "With TPS, dynamic β(t,d) gives smoother transitions than uniform β_t.",
-          "Jerk 1.238 vs 1.265 (T_s = 90)", Less("tps/jerk_tps", "tps/jerk_tps_uniform"),
-          mechanism=(Evidence("paired per boundary", ("tps/jerk_tps_minus_uniform",)),
-                     Evidence("largest TV between rows of the dynamic and uniform forward processes (η = 0.25, the "
-                              "multi-motion model's)", ("transitions/max_tv_eta0.25",)))),
-    Claim("M2D2M", "Table 3", "Dynamic transition probabilities improve single-motion FID over uniform ones.",
-          "FID 0.087 (β(t,d)) vs 0.115 (β_t); KIT-ML 0.378 vs 0.404",
-          Less("transitions/fid_dynamic", "transitions/fid_uniform"),
-          mechanism=(
-              Evidence("largest TV between rows of the dynamic and the uniform forward process Q̄_t (η = 0.25, 0.5, 2; "
-                       "at most K·β̄_T)", ("transitions/max_tv_eta0.25", "transitions/max_tv_eta0.5",
-                                           "transitions/max_tv_eta2", "transitions/kbeta_bar_t")),
-              Evidence("FID dynamic − uniform, interval over training seeds",
-                       ("transitions/fid_dynamic_minus_uniform",)),
-              Evidence("FID gap between two training seeds of the same model (paired over repeats)",
-                       ("transitions/fid_seed_gap_dynamic", "transitions/fid_seed_gap_uniform")),
-          )),
-    Claim("M2D2M", "Supp. Table 2", "Classifier-free guidance improves single-motion fidelity.",
-          "FID 0.107 (s = 0) → 0.087 (s = 4)", Less("diffusion/fid_guided", "diffusion/fid_unguided"),
-          mechanism=(
-              Evidence("NLL of the true code at t = T: unconditional branch vs the code frequencies' entropy",
-                       ("diffusion/nll_uncond_xt", "diffusion/unigram_entropy")),
-              Evidence("entropy of p(x0 | x_T) (nats), s = 0 → 4",
-                       ("diffusion/entropy_xt_s0", "diffusion/entropy_xt_s4")),
-              Evidence("code-histogram TV to the real tokens, s = 0 → 4",
-                       ("diffusion/hist_tv_s0", "diffusion/hist_tv_s4")),
-              Evidence("adjacent repeats: real, s = 0, s = 4",
-                       ("diffusion/repeat_rate_real", "diffusion/repeat_rate_s0", "diffusion/repeat_rate_s4")),
-              Evidence("R-Top3, s = 0 → 4", ("diffusion/top3_unguided", "diffusion/top3_guided")),
-          )),
+    Claim(
+        "M2D2M",
+        "Table 1, Fig. 5",
+        "Concatenating real motions makes a jerky transition.",
+        "Jerk: GT concat 1.371 vs GT single 1.192",
+        Greater("tps/jerk_gt_concat", "tps/jerk_gt_single"),
+        mechanism=(
+            Evidence(
+                "paired per boundary: the cut against windows inside the two clips it joins",
+                ("tps/jerk_concat_minus_inside",),
+            ),
+        ),
+    ),
+    Claim(
+        "M2D2M",
+        "Table 1",
+        "TPS transitions are smoother than concatenated real motions but not over-smoothed.",
+        "Jerk: GT single 1.192 < M2D2M 1.238 < GT concat 1.371",
+        Between("tps/jerk_tps", "tps/jerk_gt_single", "tps/jerk_gt_concat"),
+        mechanism=_SEAMS,
+    ),
+    Claim(
+        "M2D2M",
+        "Supp. Table 5",
+        "Joint denoising steps smooth the transition compared with independent sampling.",
+        "Jerk: w/o TPS 1.402 → T_s = 90: 1.238",
+        Less("tps/jerk_tps", "tps/jerk_independent"),
+        mechanism=(
+            Evidence("paired per boundary", ("tps/jerk_tps_minus_independent",)),
+            Evidence("how much the joint phase changes", ("tps/tokens_changed_ts90",)),
+            *_SEAMS,
+        ),
+    ),
+    Claim(
+        "M2D2M",
+        "Supp. Table 5",
+        "Fidelity trade-off: individual-motion FID rises as T_s shrinks (keys: T_s = 100%, 90%, 50% of T).",
+        "FID 0.196 (T_s=100) < 0.254 (90) < 0.371 (50), T = 100",
+        Increasing(("tps/fid_ts100", "tps/fid_ts90", "tps/fid_ts50")),
+        mechanism=(
+            Evidence("how much the joint phase changes", ("tps/tokens_changed_ts90", "tps/tokens_changed_ts50")),
+        ),
+    ),
+    Claim(
+        "M2D2M",
+        "Table 6",
+        "Handshake over-smooths: its transition Jerk falls below real single motions.",
+        "Jerk: Handshake 1.097 vs GT single 1.192",
+        Less("tps/jerk_handshake", "tps/jerk_gt_single"),
+        mechanism=_SEAMS,
+    ),
+    Claim(
+        "M2D2M",
+        "Table 6",
+        "SLERP over-smooths even more: transition Jerk below real single motions.",
+        "Jerk: SLERP −3.554 vs GT single 1.192",
+        Less("tps/jerk_slerp", "tps/jerk_gt_single"),
+        mechanism=_SEAMS,
+    ),
+    Claim(
+        "M2D2M",
+        "Table 6",
+        "TPS keeps individual motions more faithful than Handshake.",
+        "individual FID: TPS 0.254 vs Handshake 1.279 (SLERP 1.402)",
+        Less("tps/fid_ts90", "tps/fid_handshake"),
+        mechanism=(
+            Evidence(
+                "what the evaluator sees: actions decoded alone (as Handshake's are) vs cut from one "
+                "decoded sequence (TPS, independent)",
+                ("tps/fid_separate", "tps/fid_ts100"),
+            ),
+        ),
+    ),
+    Claim(
+        "M2D2M",
+        "Table 5",
+        "With TPS, dynamic β(t,d) gives smoother transitions than uniform β_t.",
+        "Jerk 1.238 vs 1.265 (T_s = 90)",
+        Less("tps/jerk_tps", "tps/jerk_tps_uniform"),
+        mechanism=(
+            Evidence("paired per boundary", ("tps/jerk_tps_minus_uniform",)),
+            Evidence(
+                "largest TV between rows of the dynamic and uniform forward processes (η = 0.25, the "
+                "multi-motion model's)",
+                ("transitions/max_tv_eta0.25",),
+            ),
+        ),
+    ),
+    Claim(
+        "M2D2M",
+        "Table 3",
+        "Dynamic transition probabilities improve single-motion FID over uniform ones.",
+        "FID 0.087 (β(t,d)) vs 0.115 (β_t); KIT-ML 0.378 vs 0.404",
+        Less("transitions/fid_dynamic", "transitions/fid_uniform"),
+        mechanism=(
+            Evidence(
+                "largest TV between rows of the dynamic and the uniform forward process Q̄_t (η = 0.25, 0.5, 2; "
+                "at most K·β̄_T)",
+                (
+                    "transitions/max_tv_eta0.25",
+                    "transitions/max_tv_eta0.5",
+                    "transitions/max_tv_eta2",
+                    "transitions/kbeta_bar_t",
+                ),
+            ),
+            Evidence("FID dynamic − uniform, interval over training seeds", ("transitions/fid_dynamic_minus_uniform",)),
+            Evidence(
+                "FID gap between two training seeds of the same model (paired over repeats)",
+                ("transitions/fid_seed_gap_dynamic", "transitions/fid_seed_gap_uniform"),
+            ),
+        ),
+    ),
+    Claim(
+        "M2D2M",
+        "Supp. Table 2",
+        "Classifier-free guidance improves single-motion fidelity.",
+        "FID 0.107 (s = 0) → 0.087 (s = 4)",
+        Less("diffusion/fid_guided", "diffusion/fid_unguided"),
+        mechanism=(
+            Evidence(
+                "NLL of the true code at t = T: unconditional branch vs the code frequencies' entropy",
+                ("diffusion/nll_uncond_xt", "diffusion/unigram_entropy"),
+            ),
+            Evidence(
+                "entropy of p(x0 | x_T) (nats), s = 0 → 4", ("diffusion/entropy_xt_s0", "diffusion/entropy_xt_s4")
+            ),
+            Evidence(
+                "code-histogram TV to the real tokens, s = 0 → 4", ("diffusion/hist_tv_s0", "diffusion/hist_tv_s4")
+            ),
+            Evidence(
+                "adjacent repeats: real, s = 0, s = 4",
+                ("diffusion/repeat_rate_real", "diffusion/repeat_rate_s0", "diffusion/repeat_rate_s4"),
+            ),
+            Evidence("R-Top3, s = 0 → 4", ("diffusion/top3_unguided", "diffusion/top3_guided")),
+        ),
+    ),
 )
 
 
@@ -770,20 +923,32 @@ CLAIMS: tuple[Claim, ...] = (
 # them with the rules above must reproduce each paper's conclusion: a check that every rule points
 # the way its claim does. Keys whose quantity the paper only plots are absent.
 PAPER_NUMBERS: dict[str, tuple[float, str]] = {
-    "discord/sjpe_ff": (0.512, "DisCoRD Table 1"), "discord/sjpe_rf": (0.385, "DisCoRD Table 1"),
-    "discord/fid_ff": (0.019, "DisCoRD Table 1"), "discord/fid_rf": (0.011, "DisCoRD Table 1"),
-    "discord/mpjpe_ff": (29.5, "DisCoRD Table 1"), "discord/mpjpe_rf": (33.3, "DisCoRD Table 1"),
-    "discord/fid_steps2": (0.034, "DisCoRD Table E"), "discord/fid_steps16": (0.032, "DisCoRD Table E"),
-    "discord/time_steps2": (0.016, "DisCoRD Table E"), "discord/time_steps16": (0.221, "DisCoRD Table E"),
+    "discord/sjpe_ff": (0.512, "DisCoRD Table 1"),
+    "discord/sjpe_rf": (0.385, "DisCoRD Table 1"),
+    "discord/fid_ff": (0.019, "DisCoRD Table 1"),
+    "discord/fid_rf": (0.011, "DisCoRD Table 1"),
+    "discord/mpjpe_ff": (29.5, "DisCoRD Table 1"),
+    "discord/mpjpe_rf": (33.3, "DisCoRD Table 1"),
+    "discord/fid_steps2": (0.034, "DisCoRD Table E"),
+    "discord/fid_steps16": (0.032, "DisCoRD Table E"),
+    "discord/time_steps2": (0.016, "DisCoRD Table E"),
+    "discord/time_steps16": (0.221, "DisCoRD Table E"),
     "discord/time_ff": (0.244, "DisCoRD Table E"),
-    "tps/jerk_gt_single": (1.192, "M2D2M Table 1"), "tps/jerk_gt_concat": (1.371, "M2D2M Table 1"),
-    "tps/jerk_tps": (1.238, "M2D2M Table 1"), "tps/jerk_independent": (1.402, "M2D2M Supp. Table 5"),
-    "tps/fid_ts100": (0.196, "M2D2M Supp. Table 5"), "tps/fid_ts90": (0.254, "M2D2M Supp. Table 5"),
+    "tps/jerk_gt_single": (1.192, "M2D2M Table 1"),
+    "tps/jerk_gt_concat": (1.371, "M2D2M Table 1"),
+    "tps/jerk_tps": (1.238, "M2D2M Table 1"),
+    "tps/jerk_independent": (1.402, "M2D2M Supp. Table 5"),
+    "tps/fid_ts100": (0.196, "M2D2M Supp. Table 5"),
+    "tps/fid_ts90": (0.254, "M2D2M Supp. Table 5"),
     "tps/fid_ts50": (0.371, "M2D2M Supp. Table 5"),
-    "tps/jerk_handshake": (1.097, "M2D2M Table 6"), "tps/jerk_slerp": (-3.554, "M2D2M Table 6"),
-    "tps/fid_handshake": (1.279, "M2D2M Table 6"), "tps/jerk_tps_uniform": (1.265, "M2D2M Table 5"),
-    "transitions/fid_dynamic": (0.087, "M2D2M Table 3"), "transitions/fid_uniform": (0.115, "M2D2M Table 3"),
-    "diffusion/fid_guided": (0.087, "M2D2M Supp. Table 2"), "diffusion/fid_unguided": (0.107, "M2D2M Supp. Table 2"),
+    "tps/jerk_handshake": (1.097, "M2D2M Table 6"),
+    "tps/jerk_slerp": (-3.554, "M2D2M Table 6"),
+    "tps/fid_handshake": (1.279, "M2D2M Table 6"),
+    "tps/jerk_tps_uniform": (1.265, "M2D2M Table 5"),
+    "transitions/fid_dynamic": (0.087, "M2D2M Table 3"),
+    "transitions/fid_uniform": (0.115, "M2D2M Table 3"),
+    "diffusion/fid_guided": (0.087, "M2D2M Supp. Table 2"),
+    "diffusion/fid_unguided": (0.107, "M2D2M Supp. Table 2"),
 }
 
 
@@ -831,8 +996,9 @@ def count_sentence(counts: Mapping[str, int], noun: str = "claims") -> str:
     """``5 of 11 claims hold, 4 do not hold, 2 inconclusive``: the verdicts of a group, in words."""
     total = sum(counts.values())
     parts = [f"{counts.get(HOLDS, 0)} of {total} {noun} hold"]
-    parts += [f"{counts[v]} {'do not hold' if v == FAILS else v}" for v in (FAILS, INCONCLUSIVE, MISSING)
-              if counts.get(v)]
+    parts += [
+        f"{counts[v]} {'do not hold' if v == FAILS else v}" for v in (FAILS, INCONCLUSIVE, MISSING) if counts.get(v)
+    ]
     return ", ".join(parts)
 
 
@@ -867,11 +1033,16 @@ class ClaimsTable:
 
     def summary_html(self) -> str:
         """The summary lines as a box: "What reproduces" opens with it."""
-        lines = "".join(f'<p class="ml-claims-summary" style="margin:0.2em 0"><b>{html.escape(paper)}</b>: '
-                        f"{html.escape(count_sentence(counts))}.</p>" for paper, counts in self.by_paper().items())
-        return (f'<div class="admonition note ml-findings" style="border-left:4px solid #276be9;padding:0.3em 0.9em">'
-                f'<p class="admonition-title" style="font-weight:bold">What reproduces (profile '
-                f"<code>{html.escape(self.profile)}</code>)</p>{lines}</div>")
+        lines = "".join(
+            f'<p class="ml-claims-summary" style="margin:0.2em 0"><b>{html.escape(paper)}</b>: '
+            f"{html.escape(count_sentence(counts))}.</p>"
+            for paper, counts in self.by_paper().items()
+        )
+        return (
+            f'<div class="admonition note ml-findings" style="border-left:4px solid #276be9;padding:0.3em 0.9em">'
+            f'<p class="admonition-title" style="font-weight:bold">What reproduces (profile '
+            f"<code>{html.escape(self.profile)}</code>)</p>{lines}</div>"
+        )
 
     def _repr_html_(self) -> str:
         return self.html()
@@ -881,21 +1052,31 @@ class ClaimsTable:
         esc = html.escape
         out = ['<div class="ml-claims">']
         for paper, counts in self.by_paper().items() if summary else ():
-            out.append(f'<p class="ml-claims-summary" style="margin:0.2em 0"><b>{esc(paper)}</b>: '
-                       f"{esc(count_sentence(counts))}.</p>")
-        out += ['<table class="ml-claims-table" style="width:100%;font-size:0.9em">',
-                f"<caption>Claims vs. our measurements (profile <code>{esc(self.profile)}</code>)</caption>",
-                '<colgroup><col style="width:7.5em"><col style="width:36%"><col style="width:24%"><col></colgroup>',
-                "<thead><tr><th>Verdict</th><th>Claim</th><th>Paper</th><th>Ours</th></tr></thead><tbody>"]
+            out.append(
+                f'<p class="ml-claims-summary" style="margin:0.2em 0"><b>{esc(paper)}</b>: '
+                f"{esc(count_sentence(counts))}.</p>"
+            )
+        out += [
+            '<table class="ml-claims-table" style="width:100%;font-size:0.9em">',
+            f"<caption>Claims vs. our measurements (profile <code>{esc(self.profile)}</code>)</caption>",
+            '<colgroup><col style="width:7.5em"><col style="width:36%"><col style="width:24%"><col></colgroup>',
+            "<thead><tr><th>Verdict</th><th>Claim</th><th>Paper</th><th>Ours</th></tr></thead><tbody>",
+        ]
         for row in self.rows:
-            claim = (f"{esc(row.statement)}<br><small>{esc(row.paper)}, {esc(row.source)} &middot; "
-                     f"chapter {esc(row.chapter)}</small>")
-            out.append(f"<tr><td>{_verdict_html(row.verdict)}</td><td>{claim}</td><td>{esc(row.paper_value)}</td>"
-                       f"<td>{esc(row.ours)}</td></tr>")
+            claim = (
+                f"{esc(row.statement)}<br><small>{esc(row.paper)}, {esc(row.source)} &middot; "
+                f"chapter {esc(row.chapter)}</small>"
+            )
+            out.append(
+                f"<tr><td>{_verdict_html(row.verdict)}</td><td>{claim}</td><td>{esc(row.paper_value)}</td>"
+                f"<td>{esc(row.ours)}</td></tr>"
+            )
             if row.mechanism:
                 lines = "<br>".join(esc(line) for line in row.mechanism.split("\n") if line)
-                out.append(f'<tr class="ml-mechanism"><td></td><td colspan="3"><small><b>Why, as measured:</b> '
-                           f"{lines}</small></td></tr>")
+                out.append(
+                    f'<tr class="ml-mechanism"><td></td><td colspan="3"><small><b>Why, as measured:</b> '
+                    f"{lines}</small></td></tr>"
+                )
         out.append("</tbody></table></div>")
         return "\n".join(out)
 
@@ -913,12 +1094,23 @@ def judge(claim: Claim, recorded: Mapping[str, Result]) -> ClaimRow:
     missing = tuple(k for k in claim.keys if k not in recorded)
     verdict = MISSING if missing else claim.rule.judge(recorded)
     mechanism = "\n".join(e.format(recorded) for e in claim.mechanism)
-    return ClaimRow(claim.paper, claim.source, claim.statement, claim.paper_value, claim.rule.describe(),
-                    claim.chapter, claim.rule.sentence(recorded), verdict, missing, mechanism)
+    return ClaimRow(
+        claim.paper,
+        claim.source,
+        claim.statement,
+        claim.paper_value,
+        claim.rule.describe(),
+        claim.chapter,
+        claim.rule.sentence(recorded),
+        verdict,
+        missing,
+        mechanism,
+    )
 
 
-def claims_table(profile: str | None = None, recorded: Mapping[str, Result] | None = None,
-                 claims: Sequence[Claim] = CLAIMS) -> ClaimsTable:
+def claims_table(
+    profile: str | None = None, recorded: Mapping[str, Result] | None = None, claims: Sequence[Claim] = CLAIMS
+) -> ClaimsTable:
     """Judge every claim on the results recorded for ``profile`` (or on ``recorded`` if given)."""
     profile = get_profile(profile)
     recorded = load_all(profile) if recorded is None else recorded
@@ -944,26 +1136,42 @@ class Finding:
 # Per chapter prefix: what the chapter shows besides the papers' claims (chapters 01-03 test no claim of a paper).
 FINDINGS: dict[str, tuple[Finding, ...]] = {
     "motion_data": (
-        Finding("HumanML3D's features give the joints back exactly (up to canonicalisation).",
-                AtMost("motion_data/roundtrip_error", 1e-5)),
-        Finding("Frame-wise noise too small to see in a trajectory multiplies the jerk.",
-                Less("motion_data/wrist_jerk_slow", "motion_data/wrist_jerk_noisy")),
+        Finding(
+            "HumanML3D's features give the joints back exactly (up to canonicalisation).",
+            AtMost("motion_data/roundtrip_error", 1e-5),
+        ),
+        Finding(
+            "Frame-wise noise too small to see in a trajectory multiplies the jerk.",
+            Less("motion_data/wrist_jerk_slow", "motion_data/wrist_jerk_noisy"),
+        ),
     ),
     "vq": (
-        Finding("Residual quantization reconstructs positions more closely than one codebook.",
-                Less("vq/mpjpe_rvq", "vq/mpjpe_vq")),
-        Finding("It also keeps more of the fast motion: less jerk lost (Static sJPE).",
-                Less("vq/static_sjpe_ff_rvq", "vq/static_sjpe_ff_vq")),
-        Finding("Residual layers refine: decoding from all of them reconstructs closer than from the first alone.",
-                Less("vq/mpjpe_rvq", "vq/mpjpe_rvq_layers1")),
+        Finding(
+            "Residual quantization reconstructs positions more closely than one codebook.",
+            Less("vq/mpjpe_rvq", "vq/mpjpe_vq"),
+        ),
+        Finding(
+            "It also keeps more of the fast motion: less jerk lost (Static sJPE).",
+            Less("vq/static_sjpe_ff_rvq", "vq/static_sjpe_ff_vq"),
+        ),
+        Finding(
+            "Residual layers refine: decoding from all of them reconstructs closer than from the first alone.",
+            Less("vq/mpjpe_rvq", "vq/mpjpe_rvq_layers1"),
+        ),
     ),
     "flow": (
-        Finding("A condition (the class) straightens the learned paths.",
-                Greater("flow/straightness_conditional", "flow/straightness_unconditional")),
-        Finding("With a condition, one network evaluation already lands near the data.",
-                Less("flow/energy_conditional_euler_nfe1", "flow/energy_unconditional_euler_nfe1")),
-        Finding("Without one, more evaluations are needed: 16 Euler steps beat 1.",
-                Less("flow/energy_unconditional_euler_nfe16", "flow/energy_unconditional_euler_nfe1")),
+        Finding(
+            "A condition (the class) straightens the learned paths.",
+            Greater("flow/straightness_conditional", "flow/straightness_unconditional"),
+        ),
+        Finding(
+            "With a condition, one network evaluation already lands near the data.",
+            Less("flow/energy_conditional_euler_nfe1", "flow/energy_unconditional_euler_nfe1"),
+        ),
+        Finding(
+            "Without one, more evaluations are needed: 16 Euler steps beat 1.",
+            Less("flow/energy_unconditional_euler_nfe16", "flow/energy_unconditional_euler_nfe1"),
+        ),
     ),
 }
 
@@ -993,28 +1201,35 @@ class ChapterFindings:
         items = []
         for row in self.rows:
             source = f' <span class="ml-source">({esc(row.source)})</span>' if row.source else ""
-            items.append(f'<li style="margin:0.15em 0">{_verdict_html(row.verdict)}: {esc(row.statement)}{source} '
-                         f'<span class="ml-ours" style="opacity:0.8">Ours: {esc(row.ours)}.</span></li>')
+            items.append(
+                f'<li style="margin:0.15em 0">{_verdict_html(row.verdict)}: {esc(row.statement)}{source} '
+                f'<span class="ml-ours" style="opacity:0.8">Ours: {esc(row.ours)}.</span></li>'
+            )
         claims = sum(bool(row.source) for row in self.rows)
         summary = count_sentence(self.counts(), "claims of the papers" if claims == len(self.rows) else "statements")
         body = "\n".join(items) if items else "<li>This chapter recorded nothing yet.</li>"
-        return (f'<div class="admonition note ml-findings" style="border-left:4px solid #276be9;padding:0.2em 0.8em;'
-                f'font-size:0.9em;line-height:1.4">'
-                f'<p class="admonition-title" style="font-weight:bold">What this chapter found: {esc(summary)}</p>'
-                f'<ul style="margin:0.2em 0;padding-left:1.2em">{body}</ul>'
-                f'<p style="margin:0.2em 0 0.1em 0;opacity:0.8">Generated from the numbers this chapter recorded '
-                f"(profile <code>{esc(self.profile)}</code>); <i>What reproduces</i> judges every claim of both papers."
-                "</p></div>")
+        return (
+            f'<div class="admonition note ml-findings" style="border-left:4px solid #276be9;padding:0.2em 0.8em;'
+            f'font-size:0.9em;line-height:1.4">'
+            f'<p class="admonition-title" style="font-weight:bold">What this chapter found: {esc(summary)}</p>'
+            f'<ul style="margin:0.2em 0;padding-left:1.2em">{body}</ul>'
+            f'<p style="margin:0.2em 0 0.1em 0;opacity:0.8">Generated from the numbers this chapter recorded '
+            f"(profile <code>{esc(self.profile)}</code>); <i>What reproduces</i> judges every claim of both papers."
+            "</p></div>"
+        )
 
     def _repr_markdown_(self) -> str:
         lines = [f"**What this chapter found** (profile `{self.profile}`):", ""]
-        lines += [f"- **{r.verdict}**: {r.statement}" + (f" ({r.source})" if r.source else "") + f" Ours: {r.ours}."
-                  for r in self.rows]
+        lines += [
+            f"- **{r.verdict}**: {r.statement}" + (f" ({r.source})" if r.source else "") + f" Ours: {r.ours}."
+            for r in self.rows
+        ]
         return "\n".join(lines)
 
 
-def chapter_findings(chapter: str, profile: str | None = None,
-                     recorded: Mapping[str, Result] | None = None) -> ChapterFindings:
+def chapter_findings(
+    chapter: str, profile: str | None = None, recorded: Mapping[str, Result] | None = None
+) -> ChapterFindings:
     """The papers' claims judged on keys of ``chapter`` (a prefix such as ``"discord"``), then its own findings."""
     if chapter not in CHAPTERS:
         raise ValueError(f"unknown chapter prefix {chapter!r}; one of {sorted(CHAPTERS)}")

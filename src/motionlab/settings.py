@@ -36,9 +36,17 @@ class RunSettings:
     def __post_init__(self) -> None:
         object.__setattr__(self, "profile", get_profile(self.profile))
         object.__setattr__(self, "precision", requested_precision(self.precision))
-        if self.threads is not None and (isinstance(self.threads, bool) or not isinstance(self.threads, int)
-                                         or self.threads < 1):  # fmt: skip
+        if self.threads is not None and (
+            isinstance(self.threads, bool) or not isinstance(self.threads, int) or self.threads < 1
+        ):
             raise ValueError(f"threads must be a positive int or None, got {self.threads!r}")
+
+    @property
+    def sizes(self):
+        """How large each chapter's experiments are in this profile (:mod:`motionlab.sizes`)."""
+        from .sizes import chapter_sizes
+
+        return chapter_sizes(self.profile)
 
     def resolved_precision(self, device: str | torch.device = "cpu") -> str:
         """``"fp32"`` or ``"bf16"``: what runs on ``device``."""
@@ -50,12 +58,14 @@ class RunSettings:
         return f"profile {self.profile}, precision {resolved} ({why})"
 
 
-def resolve_settings(profile: str | None = None, precision: str | None = None,
-                     threads: int | None = None) -> RunSettings:  # fmt: skip
+def resolve_settings(
+    profile: str | None = None, precision: str | None = None, threads: int | None = None
+) -> RunSettings:
     """The settings from explicit values, else ``$MOTIONLAB_PROFILE`` / ``$MOTIONLAB_PRECISION`` /
     ``$MOTIONLAB_THREADS``, else the defaults (``laptop``, ``auto``, torch's threads); validated."""
-    return RunSettings(get_profile(profile), requested_precision(precision),
-                       threads if threads is not None else env_threads())  # fmt: skip
+    return RunSettings(
+        get_profile(profile), requested_precision(precision), threads if threads is not None else env_threads()
+    )
 
 
 def apply_settings(settings: RunSettings) -> RunSettings:

@@ -17,8 +17,10 @@ CHROMIUM = Path(os.environ.get("MOTIONLAB_CHROMIUM", "/usr/bin/chromium"))
 CHROMEDRIVER = Path(os.environ.get("MOTIONLAB_CHROMEDRIVER", "/usr/bin/chromedriver"))
 REQUIRED = os.environ.get("MOTIONLAB_BROWSER_TESTS") == "required"
 WINDOW = (1300, 1000)  # the width the book's layout is checked at
-ENABLE = ("install Debian's browser and driver (apt-get install chromium chromium-driver) and the test extra "
-          "(.venv/bin/pip install -e '.[test]')")
+ENABLE = (
+    "install Debian's browser and driver (apt-get install chromium chromium-driver) and the test extra "
+    "(.venv/bin/pip install -e '.[test]')"
+)
 
 
 def browser_missing() -> str | None:
@@ -50,8 +52,9 @@ def pytest_collection_modifyitems(config, items):
 
 def pytest_terminal_summary(terminalreporter):
     if _skipped:
-        terminalreporter.write_line(f"{len(_skipped)} browser tests skipped ({browser_missing()}): to run them, "
-                                    f"{ENABLE}")
+        terminalreporter.write_line(
+            f"{len(_skipped)} browser tests skipped ({browser_missing()}): to run them, {ENABLE}"
+        )
 
 
 @pytest.fixture(scope="module")
@@ -72,10 +75,21 @@ def browser_factory(tmp_path_factory):
         opts = webdriver.ChromeOptions()
         opts.binary_location = str(CHROMIUM)
         profile = tmp_path_factory.mktemp("chromium-profile")
-        for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-                    "--disable-background-networking", "--disable-component-update", "--no-first-run",
-                    "--disable-extensions", "--disable-sync", "--mute-audio", f"--user-data-dir={profile}",
-                    f"--window-size={WINDOW[0]},{WINDOW[1]}", "--allow-file-access-from-files"):
+        for arg in (
+            "--headless=new",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-dev-shm-usage",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--no-first-run",
+            "--disable-extensions",
+            "--disable-sync",
+            "--mute-audio",
+            f"--user-data-dir={profile}",
+            f"--window-size={WINDOW[0]},{WINDOW[1]}",
+            "--allow-file-access-from-files",
+        ):
             opts.add_argument(arg)
         if offline:
             opts.add_argument("--proxy-server=127.0.0.1:9")

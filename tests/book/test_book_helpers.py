@@ -22,9 +22,9 @@ def test_setup_returns_profile_and_seeds_everything(monkeypatch):
     monkeypatch.setenv("MOTIONLAB_PROFILE", "smoke")
     threads = torch.get_num_threads()
     try:
-        assert book.setup(seed=3) == "smoke"
+        assert book.setup(seed=3).profile == "smoke"
         first = (random.random(), np.random.rand(), torch.rand(1).item())  # noqa: NPY002
-        assert book.setup(seed=3, profile="FULL") == "full"
+        assert book.setup(seed=3, profile="FULL").profile == "full"
         second = (random.random(), np.random.rand(), torch.rand(1).item())  # noqa: NPY002
         assert first == second
         assert matplotlib.rcParams["animation.embed_limit"] == book.RC_PARAMS["animation.embed_limit"]
@@ -34,8 +34,10 @@ def test_setup_returns_profile_and_seeds_everything(monkeypatch):
         torch.set_num_threads(threads)
 
 
-@pytest.mark.parametrize(("kwargs", "match"), [({"seed": -1}, "seed"), ({"seed": 1.5}, "seed"),
-                                               ({"profile": "big"}, "profile"), ({"threads": 0}, "threads")])
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [({"seed": -1}, "seed"), ({"seed": 1.5}, "seed"), ({"profile": "big"}, "profile"), ({"threads": 0}, "threads")],
+)
 def test_setup_validates(kwargs, match):
     with pytest.raises(ValueError, match=match):
         book.setup(**kwargs)
@@ -93,8 +95,10 @@ def test_findings_box_is_filled_in_place_from_the_recorded_numbers(isolated_cach
     results.record("vq", "mpjpe_rvq", 30.0, ci=1.0, unit="mm", profile="smoke")
     found = box.update("smoke")
     data, kw = published[-1]
-    assert kw.get("update") and kw["transient"]["display_id"] == box.display_id == published[0][1]["transient"][
-        "display_id"]
+    assert (
+        kw.get("update")
+        and kw["transient"]["display_id"] == box.display_id == published[0][1]["transient"]["display_id"]
+    )
     assert "30.0 ± 1.0 mm (residual VQ)" in data["text/html"] and found.rows[0].verdict == results.HOLDS
     with pytest.raises(ValueError, match="results prefix"):
         book.findings_box("chapter 2")

@@ -51,15 +51,18 @@ def venv_bin(name: str) -> str:
 def planted_notebook():
     """A notebook whose widget callback raises once its slider moves: what the test must catch."""
     nb = nbformat.v4.new_notebook()
-    nb.cells = [nbformat.v4.new_code_cell(
-        "import ipywidgets as widgets\nimport matplotlib.pyplot as plt\n\n\n"
-        "def show(steps=2):\n"
-        "    if steps != 2:\n"
-        "        raise RuntimeError('planted fault: this callback raises')\n"
-        "    fig, ax = plt.subplots(figsize=(2, 2))\n"
-        "    ax.plot([0, steps])\n"
-        "    plt.show()\n\n\n"
-        "widgets.interact(show, steps=widgets.IntSlider(value=2, min=1, max=9, description='steps'));")]
+    nb.cells = [
+        nbformat.v4.new_code_cell(
+            "import ipywidgets as widgets\nimport matplotlib.pyplot as plt\n\n\n"
+            "def show(steps=2):\n"
+            "    if steps != 2:\n"
+            "        raise RuntimeError('planted fault: this callback raises')\n"
+            "    fig, ax = plt.subplots(figsize=(2, 2))\n"
+            "    ax.plot([0, steps])\n"
+            "    plt.show()\n\n\n"
+            "widgets.interact(show, steps=widgets.IntSlider(value=2, min=1, max=9, description='steps'));"
+        )
+    ]
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
     return nb
 
@@ -78,15 +81,26 @@ def lab(tmp_path_factory):
     tracker.write_text(json.dumps({"windowingMode": "none"}))
     port, token = free_port(), secrets.token_hex(16)
     env = os.environ | {
-        "MOTIONLAB_PROFILE": "smoke", "MOTIONLAB_THREADS": os.environ.get("MOTIONLAB_THREADS", "1"),
-        "JUPYTERLAB_SETTINGS_DIR": str(settings), "JUPYTERLAB_WORKSPACES_DIR": str(settings / "workspaces"),
+        "MOTIONLAB_PROFILE": "smoke",
+        "MOTIONLAB_THREADS": os.environ.get("MOTIONLAB_THREADS", "1"),
+        "JUPYTERLAB_SETTINGS_DIR": str(settings),
+        "JUPYTERLAB_WORKSPACES_DIR": str(settings / "workspaces"),
         "JUPYTER_RUNTIME_DIR": str(settings / "runtime"),
     }
     log = root.parent / f"{root.name}-lab.log"
-    cmd = [jupyter, "lab", "--no-browser", "--ServerApp.ip=127.0.0.1", f"--ServerApp.port={port}",
-           f"--IdentityProvider.token={token}", f"--ServerApp.root_dir={root}", "--LabApp.expose_app_in_browser=True",
-           "--ServerApp.port_retries=0", "--LabApp.news_url=", "--LabApp.check_for_updates_class="
-           "jupyterlab.NeverCheckForUpdate"]
+    cmd = [
+        jupyter,
+        "lab",
+        "--no-browser",
+        "--ServerApp.ip=127.0.0.1",
+        f"--ServerApp.port={port}",
+        f"--IdentityProvider.token={token}",
+        f"--ServerApp.root_dir={root}",
+        "--LabApp.expose_app_in_browser=True",
+        "--ServerApp.port_retries=0",
+        "--LabApp.news_url=",
+        "--LabApp.check_for_updates_class=jupyterlab.NeverCheckForUpdate",
+    ]
     if os.geteuid() == 0:
         cmd.append("--allow-root")
     with open(log, "w") as out:
@@ -190,9 +204,13 @@ def run_all(driver, url: str) -> dict:
         else:
             continue
         break
-    state = wait_for(driver, STATE_JS,
-                     lambda s: s["errors"] or (s["kernel"] == "idle" and s["busy"] == 0 and s["run"] == s["cells"]),
-                     RUN_TIMEOUT, "every cell to run")
+    state = wait_for(
+        driver,
+        STATE_JS,
+        lambda s: s["errors"] or (s["kernel"] == "idle" and s["busy"] == 0 and s["run"] == s["cells"]),
+        RUN_TIMEOUT,
+        "every cell to run",
+    )
     assert not state["errors"], f"a cell failed: {state['errors']}"
     print(f"{url.split('?')[0].rsplit('/', 1)[-1]} ran in {time.monotonic() - start:.0f} s ({state['cells']} cells)")
     return state
@@ -209,8 +227,14 @@ def move_slider(driver, label: str, value: str) -> tuple[dict, dict]:
     readout.click()
     readout.send_keys(Keys.CONTROL, "a")
     readout.send_keys(value, Keys.ENTER)
-    after = wait_for(driver, FIND_JS, lambda f: f is not None and f["image"] != before["image"]
-                     or bool(driver.execute_script(WIDGETS_JS)["errors"]), 120, "the figure to change", label)
+    after = wait_for(
+        driver,
+        FIND_JS,
+        lambda f: f is not None and f["image"] != before["image"] or bool(driver.execute_script(WIDGETS_JS)["errors"]),
+        120,
+        "the figure to change",
+        label,
+    )
     return before, after
 
 

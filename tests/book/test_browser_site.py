@@ -132,8 +132,9 @@ def test_every_page_logs_no_console_error(reports):
 
 
 def test_no_request_leaves_the_machine(reports):
-    remote = {page: sorted({u for u in r["requests"] if not u.startswith(LOCAL_SCHEMES)})
-              for page, r in reports.items()}
+    remote = {
+        page: sorted({u for u in r["requests"] if not u.startswith(LOCAL_SCHEMES)}) for page, r in reports.items()
+    }
     remote = {page: urls for page, urls in remote.items() if urls}
     assert not remote, f"pages that reach the network: {remote}"
 
@@ -172,8 +173,10 @@ def test_nothing_scrolls_sideways_and_figures_keep_their_size(reports):
 def test_the_checks_see_a_planted_fault(browser, tmp_path):
     """A page with a script error, a missing file and a request to the network: each check must report it."""
     page = tmp_path / "planted.html"
-    page.write_text("<!DOCTYPE html><html><body><p>planted</p><script>throw new Error('planted fault');</script>"
-                    '<img src="missing.png"><img src="https://example.org/remote.png"></body></html>')
+    page.write_text(
+        "<!DOCTYPE html><html><body><p>planted</p><script>throw new Error('planted fault');</script>"
+        '<img src="missing.png"><img src="https://example.org/remote.png"></body></html>'
+    )
     report = open_page(browser, page)
     console = " ".join(e["message"] for e in report["console"])
     assert "planted fault" in console and "missing.png" in console, console

@@ -30,10 +30,17 @@ def test_every_chapter_names_its_models_and_every_model_serves_a_chapter():
 
 
 def test_a_model_is_charged_to_the_first_chapter_that_loads_it():
-    training = {"data": {"seconds": 60}, "tokenizer/vq": {"seconds": 600}, "tokenizer/rvq": {"seconds": 300},
-                "evaluator": {"seconds": 120}}  # fmt: skip
-    execution = {"01_motion_data": {"seconds": 30}, "02_vector_quantization": {"seconds": 90},
-                 "06_sjpe": {"seconds": 200}}  # fmt: skip
+    training = {
+        "data": {"seconds": 60},
+        "tokenizer/vq": {"seconds": 600},
+        "tokenizer/rvq": {"seconds": 300},
+        "evaluator": {"seconds": 120},
+    }
+    execution = {
+        "01_motion_data": {"seconds": 30},
+        "02_vector_quantization": {"seconds": 90},
+        "06_sjpe": {"seconds": 200},
+    }
     costs = chapter_costs(training, execution)
     assert costs == {"01_motion_data": (90, 30), "02_vector_quantization": (990, 90), "06_sjpe": (320, 200)}
 
@@ -43,8 +50,9 @@ def test_the_intro_shows_the_recorded_laptop_times():
     assert (times / "laptop.json").is_file() and (times / "laptop-training.json").is_file(), (
         "record a measured laptop build: train book --record, book execute --record"
     )
-    check = subprocess.run([sys.executable, str(ROOT / "tools" / "chapter_map.py"), "--check"], capture_output=True,
-                           text=True)  # fmt: skip
+    check = subprocess.run(
+        [sys.executable, str(ROOT / "tools" / "chapter_map.py"), "--check"], capture_output=True, text=True
+    )
     assert check.returncode == 0, check.stderr
     intro = (ROOT / "book" / "intro.md").read_text()
     assert "| # | chapter | builds | needs | cold / warm (min) |" in intro
@@ -57,9 +65,10 @@ def test_recording_training_times_keeps_the_entries_of_cached_models(tmp_path):
     path = tmp_path / "laptop-training.json"
     _record_training(path, [JobResult("data", "trained", 70.0, 65.0), JobResult("evaluator", "trained", 200, 190)])
     _record_training(path, [JobResult("data", "cached"), JobResult("evaluator", "trained", 150.04, 140.06)])
-    assert json.loads(path.read_text()) == {"data": {"seconds": 70.0, "cpu_seconds": 65.0, "precision": "fp32"},
-                                            "evaluator": {"seconds": 150.0, "cpu_seconds": 140.1,
-                                                          "precision": "fp32"}}  # fmt: skip
+    assert json.loads(path.read_text()) == {
+        "data": {"seconds": 70.0, "cpu_seconds": 65.0, "precision": "fp32"},
+        "evaluator": {"seconds": 150.0, "cpu_seconds": 140.1, "precision": "fp32"},
+    }
 
 
 def test_train_book_in_the_repository_keeps_its_times_beside_the_build(tmp_path, monkeypatch):
@@ -71,8 +80,9 @@ def test_train_book_in_the_repository_keeps_its_times_beside_the_build(tmp_path,
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("MOTIONLAB_HOME", str(tmp_path / "home"))
     monkeypatch.setattr("motionlab.book_models.book_jobs", lambda profile: [])
-    monkeypatch.setattr("motionlab.train.plan.run_plan",
-                        lambda plan, workers: [JobResult("data", "trained", 80.0, 6.0)])  # fmt: skip
+    monkeypatch.setattr(
+        "motionlab.train.plan.run_plan", lambda plan, workers: [JobResult("data", "trained", 80.0, 6.0)]
+    )
     args = cli.build_parser().parse_args(["train", "book", "--profile", "smoke"])
     args.settings = cli._settings(args)  # what main() resolves before any command
     assert cli._train_book(args, {}) == 0

@@ -50,8 +50,11 @@ def test_there_are_chapters():
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
 def test_notebook_is_committed_clean(path):
     nb = nbformat.read(path, as_version=4)
-    dirty = [i for i, c in enumerate(nb.cells)
-             if c.cell_type == "code" and (c.get("outputs") or c.get("execution_count") is not None)]
+    dirty = [
+        i
+        for i, c in enumerate(nb.cells)
+        if c.cell_type == "code" and (c.get("outputs") or c.get("execution_count") is not None)
+    ]
     assert not dirty, f"{path.name}: cells {dirty} carry outputs or execution counts; clear them before committing"
     assert "widgets" not in nb.metadata, f"{path.name}: saved widget state in the notebook metadata"
 
@@ -63,8 +66,9 @@ def test_notebook_has_exactly_one_parameters_cell(path):
     assert len(tagged) == 1, f"{path.name}: expected one cell tagged 'parameters', found {len(tagged)}"
     cell = nb.cells[tagged[0]]
     assert cell.cell_type == "code"
-    assert re.search(r"^profile\s*=", cell.source, re.MULTILINE), \
+    assert re.search(r"^profile\s*=", cell.source, re.MULTILINE), (
         f"{path.name}: the parameters cell must assign `profile` (papermill overrides it)"
+    )
     assert "MOTIONLAB_PROFILE" in cell.source, f"{path.name}: read the default profile from $MOTIONLAB_PROFILE"
 
 

@@ -40,8 +40,9 @@ def test_a_stalled_kernel_is_restarted_and_the_chapter_completes(tmp_path):
 
 
 def test_a_busy_silent_cell_is_not_mistaken_for_a_stall(tmp_path):
-    source = write_notebook(tmp_path / "busy.ipynb",
-                            "import time\nt = time.process_time()\nwhile time.process_time() - t < 4:\n    pass")
+    source = write_notebook(
+        tmp_path / "busy.ipynb", "import time\nt = time.process_time()\nwhile time.process_time() - t < 4:\n    pass"
+    )
     run = execute_chapter(source, tmp_path / "busy-out.ipynb", stall_s=2, poll_s=0.5, log=lambda _: None)
     assert run.status == "ok" and run.attempts == 1 and run.events == []
 
@@ -78,8 +79,9 @@ def test_stage_site_keeps_sources_and_swaps_in_executed_chapters(tmp_path):
 
 def test_chapters_marked_last_start_after_all_others(tmp_path):
     marker = tmp_path / "recorded"
-    first = write_notebook(tmp_path / "a.ipynb",
-                           f"import time, pathlib\ntime.sleep(2)\npathlib.Path({str(marker)!r}).touch()")
+    first = write_notebook(
+        tmp_path / "a.ipynb", f"import time, pathlib\ntime.sleep(2)\npathlib.Path({str(marker)!r}).touch()"
+    )
     summary = write_notebook(tmp_path / "z.ipynb", f"import pathlib\nassert pathlib.Path({str(marker)!r}).exists()")
     runs = execute_chapters([summary, first], tmp_path / "out", jobs=2, last={"z"}, out=open(tmp_path / "log", "w"))
     assert [r.name for r in runs] == ["z", "a"] and all(r.status == "ok" for r in runs)
@@ -87,9 +89,11 @@ def test_chapters_marked_last_start_after_all_others(tmp_path):
 
 def test_an_interact_cell_keeps_its_output_in_the_cell(tmp_path):
     pytest.importorskip("ipywidgets")
-    source = write_notebook(tmp_path / "widget.ipynb",
-                            "import ipywidgets as widgets\n"
-                            "widgets.interact(lambda x: print(f'value {x}'), x=widgets.IntSlider(value=3, max=9));")
+    source = write_notebook(
+        tmp_path / "widget.ipynb",
+        "import ipywidgets as widgets\n"
+        "widgets.interact(lambda x: print(f'value {x}'), x=widgets.IntSlider(value=3, max=9));",
+    )
     run = execute_chapter(source, tmp_path / "widget-out.ipynb", stall_s=30, poll_s=0.5, log=lambda _: None)
     assert run.status == "ok"
     outputs = nbformat.read(tmp_path / "widget-out.ipynb", as_version=4).cells[0].outputs
@@ -107,8 +111,9 @@ def test_the_summary_chapter_runs_after_the_others():
 
 def test_an_unchanged_chapter_is_kept_and_a_changed_one_executes_again(tmp_path):
     counter = tmp_path / "executions"
-    count = (f"import pathlib\np = pathlib.Path({str(counter)!r})\n"
-             "p.write_text(p.read_text() + 'x' if p.exists() else 'x')")
+    count = (
+        f"import pathlib\np = pathlib.Path({str(counter)!r})\np.write_text(p.read_text() + 'x' if p.exists() else 'x')"
+    )
     chapter = write_notebook(tmp_path / "a.ipynb", count)
     summary = write_notebook(tmp_path / "z.ipynb", "1 + 1")
     out, log = tmp_path / "out", open(tmp_path / "log", "w")

@@ -32,10 +32,13 @@ PAGE_CELLS = [
     ("code", "import os\nprofile = os.environ.get('MOTIONLAB_PROFILE', 'smoke')"),
     ("code", "from motionlab import book\nprofile = book.setup(seed=0, profile=profile)"),
     ("code", "import ipywidgets as widgets\nwidgets.IntSlider(value=3, min=0, max=9, description='steps')"),
-    ("code", "import matplotlib.pyplot as plt\nfrom matplotlib.animation import FuncAnimation\n"
-             "fig, ax = plt.subplots(figsize=(1.2, 1.2), dpi=40)\n(line,) = ax.plot([0, 1], [0, 0])\n"
-             "anim = FuncAnimation(fig, lambda i: line.set_ydata([0, i / 3]) or (line,), frames=3)\n"
-             "book.embed_animation(anim)"),
+    (
+        "code",
+        "import matplotlib.pyplot as plt\nfrom matplotlib.animation import FuncAnimation\n"
+        "fig, ax = plt.subplots(figsize=(1.2, 1.2), dpi=40)\n(line,) = ax.plot([0, 1], [0, 0])\n"
+        "anim = FuncAnimation(fig, lambda i: line.set_ydata([0, i / 3]) or (line,), frames=3)\n"
+        "book.embed_animation(anim)",
+    ),
 ]
 
 
@@ -49,8 +52,13 @@ def ensure_vendored() -> None:
         return
     if shutil.which("npm") is None and not (REPO / "node_modules").is_dir():
         pytest.skip("npm is not available, so MathJax/widget assets cannot be vendored")
-    proc = subprocess.run([sys.executable, str(REPO / "tools" / "vendor_web_assets.py")], cwd=REPO,
-                          capture_output=True, text=True, timeout=240)
+    proc = subprocess.run(
+        [sys.executable, str(REPO / "tools" / "vendor_web_assets.py")],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=240,
+    )
     if proc.returncode != 0:
         pytest.skip(f"vendoring failed (npm registry unreachable?): {proc.stderr[-500:]}")
 
@@ -69,16 +77,34 @@ def site(tmp_path_factory) -> Path:
     (root / "_build").mkdir()
     (root / "_build" / "vendor").symlink_to(VENDOR, target_is_directory=True)  # html_static_path
     nb = nbformat.v4.new_notebook()
-    nb.cells = [nbformat.v4.new_markdown_cell(src) if kind == "markdown" else nbformat.v4.new_code_cell(src)
-                for kind, src in PAGE_CELLS]
+    nb.cells = [
+        nbformat.v4.new_markdown_cell(src) if kind == "markdown" else nbformat.v4.new_code_cell(src)
+        for kind, src in PAGE_CELLS
+    ]
     nb.metadata["kernelspec"] = {"name": "python3", "display_name": "Python 3", "language": "python"}
     nbformat.write(nb, root / "page.ipynb")
     (root / "_toc.yml").write_text("format: jb-book\nroot: page\n")
 
     env = os.environ | {"MOTIONLAB_PROFILE": "smoke", "MOTIONLAB_HOME": str(root / "home")}
-    proc = subprocess.run([str(jb), "build", str(root), "--config", str(REPO / "_config.yml"),
-                           "--toc", str(root / "_toc.yml"), "-W", "-n", "--keep-going"],
-                          cwd=root, env=env, capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(
+        [
+            str(jb),
+            "build",
+            str(root),
+            "--config",
+            str(REPO / "_config.yml"),
+            "--toc",
+            str(root / "_toc.yml"),
+            "-W",
+            "-n",
+            "--keep-going",
+        ],
+        cwd=root,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     return root / "_build" / "html" / "page.html"
 
@@ -143,10 +169,21 @@ def test_widget_state_and_animation_are_embedded(site):
 @pytest.mark.skipif(not CHROMIUM.exists(), reason="/usr/bin/chromium not installed")
 def test_headless_render_without_network(site, tmp_path):
     # A dead proxy makes every http(s) request fail; file:// is unaffected.
-    cmd = [str(CHROMIUM), "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-           "--disable-component-update", "--no-first-run", f"--user-data-dir={tmp_path / 'profile'}",
-           "--proxy-server=127.0.0.1:9", "--proxy-bypass-list=<-loopback>", "--virtual-time-budget=15000",
-           "--dump-dom", site.as_uri()]
+    cmd = [
+        str(CHROMIUM),
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--no-first-run",
+        f"--user-data-dir={tmp_path / 'profile'}",
+        "--proxy-server=127.0.0.1:9",
+        "--proxy-bypass-list=<-loopback>",
+        "--virtual-time-budget=15000",
+        "--dump-dom",
+        site.as_uri(),
+    ]
     dom = subprocess.run(cmd, capture_output=True, text=True, timeout=90).stdout
     assert "<mjx-container" in dom, "MathJax did not typeset the page"
     assert "\\(x^2" not in dom, "raw TeX left in the rendered page"

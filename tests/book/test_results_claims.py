@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from motionlab import results
+from motionlab.estimate import Estimate
 from motionlab.results import (
     CLAIMS,
     FAILS,
@@ -127,7 +128,7 @@ def test_a_difference_is_judged_by_its_own_interval_not_by_overlapping_intervals
     assert Less("a", "d").judge(rec) == INCONCLUSIVE  # 0.14 < 0.141
     assert Less("a", "pt").judge(rec) == HOLDS  # against a point, a's own half-width alone: 0.19 > 0.1
     assert Less("a", "c").judge({"a": r(1.0, (0.95, 1.2)), "c": rec["c"]}) == INCONCLUSIVE  # the wider side counts
-    assert results.clearly_apart(1.0, 0.1, 1.16, 0.1) and not results.clearly_apart(1.0, 0.1, 1.14, 0.1)
+    assert Estimate(1.0, 0.1).apart_from(Estimate(1.16, 0.1)) and not Estimate(1.0, 0.1).apart_from(Estimate(1.14, 0.1))
 
 
 def test_missing_keys_give_a_row_not_a_gap():
@@ -189,8 +190,14 @@ def test_claims_table_uses_recorded_numbers(results_root):
 def test_mechanism_rows_show_recorded_numbers_and_never_change_the_verdict(results_root):
     from motionlab.results import Evidence
 
-    claim = Claim("P", "T", "guidance helps", "1 vs 2", Less("c/a", "c/b"),
-                  mechanism=(Evidence("entropy, s = 0 → 4", ("c/h0", "c/h4")), Evidence("repeats", ("c/rep",))))
+    claim = Claim(
+        "P",
+        "T",
+        "guidance helps",
+        "1 vs 2",
+        Less("c/a", "c/b"),
+        mechanism=(Evidence("entropy, s = 0 → 4", ("c/h0", "c/h4")), Evidence("repeats", ("c/rep",))),
+    )
     rec = {"c/a": r(2.0, key="a"), "c/b": r(1.0, key="b"), "c/h0": r(3.74, key="h0"), "c/h4": r(1.22, key="h4")}
     row = results.judge(claim, rec)
     assert row.verdict == FAILS  # the mechanism explains, it does not judge
@@ -199,8 +206,10 @@ def test_mechanism_rows_show_recorded_numbers_and_never_change_the_verdict(resul
     assert results.judge(Claim("P", "T", "s", "v", Less("c/a", "c/b")), rec).mechanism == ""
     # The guidance and dynamic-β claims of M2D2M carry their mechanism, on keys of their own chapters.
     explained = {c.rule.describe(): c for c in CLAIMS if c.mechanism}
-    assert {"diffusion/fid_guided < diffusion/fid_unguided", "transitions/fid_dynamic < transitions/fid_uniform"} \
-        <= set(explained)
+    assert {
+        "diffusion/fid_guided < diffusion/fid_unguided",
+        "transitions/fid_dynamic < transitions/fid_uniform",
+    } <= set(explained)
     for c in explained.values():  # a mechanism may read another chapter's keys, each one a reader can name
         assert all(k.split("/")[0] in results.CHAPTERS and k in results.QUANTITIES for k in c.mechanism_keys)
     table = results.ClaimsTable([row], "smoke")
@@ -222,19 +231,31 @@ def test_estimates_read_with_units_and_only_real_intervals():
 
 
 def test_ours_is_a_phrase_without_raw_keys():
-    rec = {"discord/sjpe_rf": Result("discord", "sjpe_rf", 0.412, (0.399, 0.425)),
-           "discord/sjpe_ff": Result("discord", "sjpe_ff", 0.512)}
-    assert Less("discord/sjpe_rf", "discord/sjpe_ff").sentence(rec) == \
-        "sJPE: 0.412 ± 0.013 (flow decoder) < 0.512 (feed-forward decoder)"
+    rec = {
+        "discord/sjpe_rf": Result("discord", "sjpe_rf", 0.412, (0.399, 0.425)),
+        "discord/sjpe_ff": Result("discord", "sjpe_ff", 0.512),
+    }
+    assert (
+        Less("discord/sjpe_rf", "discord/sjpe_ff").sentence(rec)
+        == "sJPE: 0.412 ± 0.013 (flow decoder) < 0.512 (feed-forward decoder)"
+    )
     # two different values never print alike
-    close = {"discord/sjpe_steps2": Result("discord", "sjpe_steps2", 3.6161),
-             "discord/sjpe_steps16": Result("discord", "sjpe_steps16", 3.6152)}
-    assert Greater("discord/sjpe_steps2", "discord/sjpe_steps16").sentence(close) == \
-        "sJPE: 3.616 (2 steps) > 3.615 (16 steps)"
-    within = {"discord/fid_steps2": Result("discord", "fid_steps2", 0.034),
-              "discord/fid_steps16": Result("discord", "fid_steps16", 0.032)}
-    assert Within("discord/fid_steps2", "discord/fid_steps16", 0.25).sentence(within) == \
-        "FID: 0.0340 (2 steps), 0.0320 (16 steps): 6% apart (the claim allows 25%)"
+    close = {
+        "discord/sjpe_steps2": Result("discord", "sjpe_steps2", 3.6161),
+        "discord/sjpe_steps16": Result("discord", "sjpe_steps16", 3.6152),
+    }
+    assert (
+        Greater("discord/sjpe_steps2", "discord/sjpe_steps16").sentence(close)
+        == "sJPE: 3.616 (2 steps) > 3.615 (16 steps)"
+    )
+    within = {
+        "discord/fid_steps2": Result("discord", "fid_steps2", 0.034),
+        "discord/fid_steps16": Result("discord", "fid_steps16", 0.032),
+    }
+    assert (
+        Within("discord/fid_steps2", "discord/fid_steps16", 0.25).sentence(within)
+        == "FID: 0.0340 (2 steps), 0.0320 (16 steps): 6% apart (the claim allows 25%)"
+    )
 
 
 def test_every_key_a_page_reads_has_a_label():
@@ -246,8 +267,10 @@ def test_every_key_a_page_reads_has_a_label():
 
 
 def test_claims_page_shows_no_raw_key_and_a_summary_per_paper():
-    recorded = {name: Result(*name.split("/", 1), 1.0 + i / 10, (0.9 + i / 10, 1.1 + i / 10))
-                for i, name in enumerate(set(results.claim_keys()) | {k for c in CLAIMS for k in c.mechanism_keys})}
+    recorded = {
+        name: Result(*name.split("/", 1), 1.0 + i / 10, (0.9 + i / 10, 1.1 + i / 10))
+        for i, name in enumerate(set(results.claim_keys()) | {k for c in CLAIMS for k in c.mechanism_keys})
+    }
     table = results.claims_table("smoke", recorded=recorded)
     html = table._repr_html_()
     raw = [k for k in recorded if k in html or k.split("/", 1)[1] in html]
@@ -264,8 +287,10 @@ def test_claims_page_shows_no_raw_key_and_a_summary_per_paper():
 
 
 def test_chapter_findings_judge_the_chapters_claims_and_its_own_findings():
-    rec = {"vq/mpjpe_vq": Result("vq", "mpjpe_vq", 40.0, None, "mm"),
-           "vq/mpjpe_rvq": Result("vq", "mpjpe_rvq", 30.0, (29.0, 31.0), "mm")}
+    rec = {
+        "vq/mpjpe_vq": Result("vq", "mpjpe_vq", 40.0, None, "mm"),
+        "vq/mpjpe_rvq": Result("vq", "mpjpe_rvq", 30.0, (29.0, 31.0), "mm"),
+    }
     found = results.chapter_findings("vq", "smoke", recorded=rec)
     assert [r.verdict for r in found.rows] == [HOLDS, MISSING, MISSING]
     assert found.rows[0].ours == "MPJPE: 30.0 ± 1.0 mm (residual VQ) < 40.0 mm (VQ, one codebook)"

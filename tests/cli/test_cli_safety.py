@@ -37,8 +37,11 @@ def test_an_output_that_is_a_folder_is_refused_before_work(command, tmp_path, is
     folder.mkdir()
     src = tmp_path / "in.npy"
     np.save(src, np.zeros((10, 263), np.float32))
-    argv = (["generate", "a person waves", "--out", str(folder), *SMOKE] if command == "generate"
-            else ["convert", str(src), str(folder)])  # fmt: skip
+    argv = (
+        ["generate", "a person waves", "--out", str(folder), *SMOKE]
+        if command == "generate"
+        else ["convert", str(src), str(folder)]
+    )
     assert main(argv) == 2
     one_error_line(capsys.readouterr().err, "is a folder")
     assert nothing_trained(isolated_cache)

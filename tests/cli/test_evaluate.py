@@ -61,8 +61,9 @@ def test_reconstruction_vq_json_equals_the_library_scores(data, tmp_path, capsys
     assert evaluate("reconstruction", data, "--decoder", "vq", "--limit", "12", "--json", str(out)) == 0
     stdout = capsys.readouterr().out.splitlines()
     dataset = load_dataset(data)
-    assert stdout[0] == (f"evaluate reconstruction: profile smoke, fp32, data {dataset.key}, split test, 12 clips, "
-                         "2 repeats, seed 0")  # fmt: skip
+    assert stdout[0] == (
+        f"evaluate reconstruction: profile smoke, fp32, data {dataset.key}, split test, 12 clips, 2 repeats, seed 0"
+    )
     assert "| VQ-VAE decoder (deterministic) |" in "\n".join(stdout)
 
     # the same numbers, straight from the building blocks
@@ -80,8 +81,17 @@ def test_reconstruction_vq_json_equals_the_library_scores(data, tmp_path, capsys
     assert result["config"]["decoder"] == "vq" and result["config"]["limit"] == 12
     assert list(result["rows"]) == ["VQ-VAE decoder"] and result["deterministic"] == ["VQ-VAE decoder"]
     row = result["rows"]["VQ-VAE decoder"]
-    assert set(row) == {"fid", "mpjpe_mm", "sjpe", "noise_sjpe", "static_sjpe", "sjpe_ratio", "noise_sjpe_ratio",
-                        "static_sjpe_ratio", "joint_jerk"}
+    assert set(row) == {
+        "fid",
+        "mpjpe_mm",
+        "sjpe",
+        "noise_sjpe",
+        "static_sjpe",
+        "sjpe_ratio",
+        "noise_sjpe_ratio",
+        "static_sjpe_ratio",
+        "joint_jerk",
+    }
     for metric, value in expected.as_dict().items():
         assert row[metric] == {"mean": pytest.approx(value, rel=1e-9, abs=1e-12), "ci95": 0.0, "n": 1}
     assert not [p for p in tmp_path.iterdir() if p.name != "vq.json"]  # no temporary file left behind
@@ -108,8 +118,21 @@ def test_reconstruction_chooses_the_flow_decoders_parameterisation_and_sampling(
     base = ["--decoder", "discord", "--limit", "10", "--repeats", "2", "--steps", "2"]
     x, cold = tmp_path / "x.json", tmp_path / "cold.json"
     assert evaluate("reconstruction", data, *base, "--predict", "x", "--final-prediction", "--json", str(x)) == 0
-    assert evaluate("reconstruction", data, *base, "--predict", "x", "--final-prediction", "--temperature", "0",
-                    "--json", str(cold)) == 0  # fmt: skip
+    assert (
+        evaluate(
+            "reconstruction",
+            data,
+            *base,
+            "--predict",
+            "x",
+            "--final-prediction",
+            "--temperature",
+            "0",
+            "--json",
+            str(cold),
+        )
+        == 0
+    )
     flow_x = "RVQ-VAE tokens + DisCoRD (2 euler steps, x-prediction, last step x̂1)"
     assert list(read(x)["rows"])[1] == flow_x
     assert read(x)["config"]["prediction"] == "x" and read(x)["config"]["temperature"] is None
@@ -119,12 +142,15 @@ def test_reconstruction_chooses_the_flow_decoders_parameterisation_and_sampling(
     capsys.readouterr()
 
 
-@pytest.mark.parametrize("options,message", [
-    (["--decoder", "rvq", "--temperature", "0.5"], "need decoder='discord'"),
-    (["--decoder", "vq", "--predict", "x"], "need decoder='discord'"),
-    (["--decoder", "discord", "--final-prediction"], "prediction='x'"),
-    (["--decoder", "discord", "--temperature", "-1"], "temperature"),
-])  # fmt: skip
+@pytest.mark.parametrize(
+    "options,message",
+    [
+        (["--decoder", "rvq", "--temperature", "0.5"], "need decoder='discord'"),
+        (["--decoder", "vq", "--predict", "x"], "need decoder='discord'"),
+        (["--decoder", "discord", "--final-prediction"], "prediction='x'"),
+        (["--decoder", "discord", "--temperature", "-1"], "temperature"),
+    ],
+)
 def test_reconstruction_rejects_flow_options_that_cannot_apply(data, capsys, options, message):
     assert evaluate("reconstruction", data, *options) == 2
     assert message in capsys.readouterr().err
@@ -137,8 +163,19 @@ def test_train_refuses_flow_options_for_other_models(data, capsys):
 
 
 def test_t2m_prints_the_ground_truth_row_and_every_metric(data, capsys):
-    options = ["--limit", "32", "--repeats", "2", "--num-steps", "5", "--multimodality", "--mm-texts", "3",
-               "--mm-repeats", "10"]  # fmt: skip
+    options = [
+        "--limit",
+        "32",
+        "--repeats",
+        "2",
+        "--num-steps",
+        "5",
+        "--multimodality",
+        "--mm-texts",
+        "3",
+        "--mm-repeats",
+        "10",
+    ]
     assert evaluate("t2m", data, *options) == 0
     captured = capsys.readouterr()
     lines = captured.out.splitlines()
@@ -169,8 +206,12 @@ def test_multi_tps_and_independent(data, tmp_path, capsys):
     assert "multi-motion generation 4 of 4" in captured.err  # one line per generation phase in a log
     assert "3 instances, 4 actions each" in stdout.splitlines()[0]
     result = read(out)
-    assert list(result["rows"]) == ["Ground Truth (Single)", "Ground Truth (Concat)", "TPS (T_s = 90)",
-                                    "Independent (tokens concatenated)"]  # fmt: skip
+    assert list(result["rows"]) == [
+        "Ground Truth (Single)",
+        "Ground Truth (Concat)",
+        "TPS (T_s = 90)",
+        "Independent (tokens concatenated)",
+    ]
     assert result["config"]["methods"] == ["tps", "independent"] and result["counts"]["instances"] == 3
     for label in ("TPS (T_s = 90)", "Independent (tokens concatenated)", "Ground Truth (Single)"):
         row = result["rows"][label]
@@ -229,10 +270,13 @@ def test_decoder_choices_are_checked_per_task(capsys):
 
 
 def test_table_json_and_markdown(tmp_path):
-    rows = {"a": {"fid": Estimate(1.0, 0.5, 3), "jerk": Estimate(float("nan"), float("nan"), 3)},
-            "b": {"fid": Estimate(2.0, 0.0, 1)}}  # fmt: skip
-    table = EvaluationTable("multi", "smoke", "data-123", "test", 3, 7, {"x": 1}, {"clips": 5}, ("fid", "jerk"),
-                            rows, deterministic=("b",))  # fmt: skip
+    rows = {
+        "a": {"fid": Estimate(1.0, 0.5, 3), "jerk": Estimate(float("nan"), float("nan"), 3)},
+        "b": {"fid": Estimate(2.0, 0.0, 1)},
+    }
+    table = EvaluationTable(
+        "multi", "smoke", "data-123", "test", 3, 7, {"x": 1}, {"clips": 5}, ("fid", "jerk"), rows, deterministic=("b",)
+    )
     md = table.to_markdown(digits=2).splitlines()
     assert md[0] == "| | FID ↓ | Jerk → |"
     assert md[2] == "| a | 1.00 ± 0.50 | nan ± nan |" and md[3] == "| b (deterministic) | 2.00 | – |"
@@ -244,8 +288,9 @@ def test_table_json_and_markdown(tmp_path):
         write_json(table, path)
     with pytest.raises(ValueError, match=".json"):
         write_json(table, tmp_path / "t.txt")
-    one_run = EvaluationTable("t2m", "smoke", "d", "test", 1, 0, {}, {"clips": 32}, ("fid",),
-                              {"model": {"fid": Estimate(3.0, 0.0, 1)}})  # fmt: skip
+    one_run = EvaluationTable(
+        "t2m", "smoke", "d", "test", 1, 0, {}, {"clips": 32}, ("fid",), {"model": {"fid": Estimate(3.0, 0.0, 1)}}
+    )
     assert one_run.to_markdown(digits=1).splitlines()[2] == "| model | 3.0 |"  # no "± 0" from a single run
     assert "32 clips, 1 repeat, seed 0" in one_run.header()
     seeds = {repeat_seed(0, r, s) for r in range(50) for s in range(2)}

@@ -20,8 +20,12 @@ def test_generate_on_an_empty_cache_announces_every_model_in_order(empty_home, c
     err = capsys.readouterr().err
     assert err.startswith("note: to train first (4 models")
     assert err.index("data") < err.index("tokenizer/vq") < err.index("discord/vq") < err.index("t2m/dynamic")
-    expected = (ESTIMATES_S["laptop"]["data"] + ESTIMATES_S["laptop"]["tokenizer"] + ESTIMATES_S["laptop"]["discord"]
-                + ESTIMATES_S["laptop"]["t2m"]) / 60  # fmt: skip
+    expected = (
+        ESTIMATES_S["laptop"]["data"]
+        + ESTIMATES_S["laptop"]["tokenizer"]
+        + ESTIMATES_S["laptop"]["discord"]
+        + ESTIMATES_S["laptop"]["t2m"]
+    ) / 60
     assert f"{expected:.1f} min of CPU" in err and "add --profile smoke" in err
     assert not list(empty_home.rglob("*.npy")), "announcing must not generate or train anything"
 
@@ -35,12 +39,17 @@ def test_nothing_is_announced_when_everything_is_cached(empty_home, capsys, monk
 def test_evaluation_models_follow_the_task_and_decoder():
     from motionlab.evaluation import ReconstructionConfig, TextToMotionConfig
 
-    assert cli._evaluation_models("reconstruction", ReconstructionConfig()) == ["tokenizer/rvq", "evaluator",
-                                                                                 "discord/rvq"]  # fmt: skip
-    assert cli._evaluation_models("reconstruction", ReconstructionConfig(decoder="vq")) == ["tokenizer/vq",
-                                                                                             "evaluator"]  # fmt: skip
-    assert cli._evaluation_models("t2m", TextToMotionConfig(decoder="discord")) == ["t2m/dynamic", "evaluator",
-                                                                                     "discord/vq"]  # fmt: skip
+    assert cli._evaluation_models("reconstruction", ReconstructionConfig()) == [
+        "tokenizer/rvq",
+        "evaluator",
+        "discord/rvq",
+    ]
+    assert cli._evaluation_models("reconstruction", ReconstructionConfig(decoder="vq")) == ["tokenizer/vq", "evaluator"]
+    assert cli._evaluation_models("t2m", TextToMotionConfig(decoder="discord")) == [
+        "t2m/dynamic",
+        "evaluator",
+        "discord/vq",
+    ]
 
 
 def test_jobs_for_adds_what_a_model_needs_and_rejects_unknown_names():

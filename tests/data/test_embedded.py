@@ -72,8 +72,9 @@ def test_every_family_generates_valid_clips(clips):
 def test_bone_lengths_are_constant_and_match_the_target_skeleton(clips):
     for (family, _), clip in clips.items():
         lengths = _bone_lengths(clip.joints)
-        np.testing.assert_allclose(lengths, np.broadcast_to(T2M.bone_lengths[1:], lengths.shape), atol=1e-9,
-                                   err_msg=family)  # fmt: skip
+        np.testing.assert_allclose(
+            lengths, np.broadcast_to(T2M.bone_lengths[1:], lengths.shape), atol=1e-9, err_msg=family
+        )
 
 
 def test_features_round_trip_through_recover_from_ric(clips):
@@ -408,7 +409,8 @@ def test_cuts_change_the_window_not_the_action():
         assert cut.captions == again.captions and cut.params == again.params
         window = {"lead_in_s", "lead_out_s", "starts", "ends"}
         assert {k: v for k, v in whole.params.items() if k not in window} == {
-            k: v for k, v in cut.params.items() if k not in window}  # fmt: skip
+            k: v for k, v in cut.params.items() if k not in window
+        }
         assert whole.params["starts"] == whole.params["ends"] == "rest"
         assert cut.params["starts"] != "rest" and cut.params["lead_in_s"] == 0.0
         assert not any("stands still" in c for c in cut.captions)  # it does not: it starts moving

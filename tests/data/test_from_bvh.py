@@ -266,8 +266,11 @@ def test_nothing_convertible_is_an_error_and_leaves_nothing(tmp_path):
 
 # --- three real CMU takes ---------------------------------------------------------------------------------
 
-CMU = {"131_01": ("a person starts walking and stops", None), "131_02": ("a person walks and stops", (10, 208)),
-       "131_03": ("a person hops forward and stops", None)}  # fmt: skip
+CMU = {
+    "131_01": ("a person starts walking and stops", None),
+    "131_02": ("a person walks and stops", (10, 208)),
+    "131_03": ("a person hops forward and stops", None),
+}
 
 
 @pytest.fixture

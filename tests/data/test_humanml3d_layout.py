@@ -17,8 +17,10 @@ def write_tiny_dataset(root, dim=263, lengths=(60, 120, 30, 199, 80)):
         feats = rng.normal(size=(n, dim)).astype(np.float32)
         clips.append(feats)
         np.save(root / "new_joint_vecs" / f"{clip_id}.npy", feats)
-        lines = ["a person walks forward#a/DET person/NOUN walk/VERB forward/ADV#0.0#0.0",
-                 "someone strolls ahead#someone/PRON stroll/VERB ahead/ADV#0.0#0.0"]  # fmt: skip
+        lines = [
+            "a person walks forward#a/DET person/NOUN walk/VERB forward/ADV#0.0#0.0",
+            "someone strolls ahead#someone/PRON stroll/VERB ahead/ADV#0.0#0.0",
+        ]
         if clip_id == "000001":
             lines.append("then the person waves#then/ADV the/DET person/NOUN wave/VERB#1.0#4.0")
         (root / "texts" / f"{clip_id}.txt").write_text("\n".join(lines) + "\n")

@@ -27,8 +27,11 @@ def _model(seed: int = 0, **kw) -> DenoisingTransformer:
 
 def _inputs(B=2, L=7, S=4, seed=0):
     g = torch.Generator().manual_seed(seed)
-    return (torch.randint(0, K + 1, (B, L), generator=g), torch.randint(0, T + 1, (B,), generator=g),
-            torch.randn(B, S, D_TEXT, generator=g))  # fmt: skip
+    return (
+        torch.randint(0, K + 1, (B, L), generator=g),
+        torch.randint(0, T + 1, (B,), generator=g),
+        torch.randn(B, S, D_TEXT, generator=g),
+    )
 
 
 def test_output_is_log_probabilities_over_codes():

@@ -38,9 +38,7 @@ def tiny_pipeline(eta: float = 0.5, T: int = 10) -> TextToMotion:
     nets = TextToMotionNetworks(config, Vocabulary.build(CAPTIONS)).eval()
     transitions = make_transitions(config.transformer, tokenizer.codebook())
     normalizer = Normalizer(np.zeros(263, np.float32), np.ones(263, np.float32))
-    return TextToMotion(
-        tokenizer, nets.text_encoder, nets.denoiser, transitions, normalizer, config.transformer
-    )
+    return TextToMotion(tokenizer, nets.text_encoder, nets.denoiser, transitions, normalizer, config.transformer)
 
 
 @pytest.fixture(scope="module")
@@ -70,8 +68,9 @@ def test_generate_is_deterministic_under_a_seed(pipe):
 
 
 def test_batching_does_not_change_the_shapes_or_the_codes_range(pipe):
-    ids = pipe.sample_tokens(CAPTIONS * 2, [8] * 6, generator=torch.Generator().manual_seed(1), num_steps=2,
-                             batch_size=4, guidance_scale=0.0)  # fmt: skip
+    ids = pipe.sample_tokens(
+        CAPTIONS * 2, [8] * 6, generator=torch.Generator().manual_seed(1), num_steps=2, batch_size=4, guidance_scale=0.0
+    )
     assert ids.shape == (6, 2) and ids.min() >= 0 and ids.max() < 32
 
 
@@ -110,11 +109,19 @@ def test_sample_tokens_passes_guidance_on_to_the_sampler(loud_pipe):
     feats = loud_pipe.encode_texts(CAPTIONS)
     ids = {}
     for space in ("x0", "posterior"):
-        ids[space] = loud_pipe.sample_tokens(CAPTIONS, lengths, generator=torch.Generator().manual_seed(0),
-                                             guidance_on=space, **kw)  # fmt: skip
-        direct = sample(loud_pipe.model, loud_pipe.transitions, feats.tokens, feats.padding_mask,
-                        lengths=[n // 4 for n in lengths], generator=torch.Generator().manual_seed(0),
-                        guidance_on=space, **kw)  # fmt: skip
+        ids[space] = loud_pipe.sample_tokens(
+            CAPTIONS, lengths, generator=torch.Generator().manual_seed(0), guidance_on=space, **kw
+        )
+        direct = sample(
+            loud_pipe.model,
+            loud_pipe.transitions,
+            feats.tokens,
+            feats.padding_mask,
+            lengths=[n // 4 for n in lengths],
+            generator=torch.Generator().manual_seed(0),
+            guidance_on=space,
+            **kw,
+        )
         assert torch.equal(ids[space], direct)
     default = loud_pipe.sample_tokens(CAPTIONS, lengths, generator=torch.Generator().manual_seed(0), **kw)
     assert torch.equal(default, ids["x0"])  # VQ-Diffusion's placement is the default
@@ -133,8 +140,17 @@ def test_sample_tokens_batches_texts_by_length_and_answers_in_request_order(loud
     generator, rows = torch.Generator().manual_seed(0), []
     for batch in ([1, 2], [0]):  # what the pipeline does: lengths 8 and 16 together, then 24 alone
         feats = loud_pipe.encode_texts([CAPTIONS[i] for i in batch])
-        rows += list(sample(loud_pipe.model, loud_pipe.transitions, feats.tokens, feats.padding_mask,
-                            lengths=[lengths[i] // 4 for i in batch], generator=generator, **kw))  # fmt: skip
+        rows += list(
+            sample(
+                loud_pipe.model,
+                loud_pipe.transitions,
+                feats.tokens,
+                feats.padding_mask,
+                lengths=[lengths[i] // 4 for i in batch],
+                generator=generator,
+                **kw,
+            )
+        )
     for i, row in zip(order, rows):
         n = lengths[i] // 4
         assert torch.equal(ids[i, :n], row[:n])
@@ -149,8 +165,14 @@ def test_generate_with_tokens_returns_the_decoded_tokens_and_the_recorder_keeps_
     assert ids.shape == (3, 4) and (ids[1, 2:] == -1).all()
 
     recorder = TokenRecorder(loud_pipe)
-    runs = evaluate_text_to_motion(recorder, RecordingEvaluator(), [Clip(16, [Caption("a")]), Clip(9, [Caption("b")])],
-                                   repeats=2, seed=0, num_steps=3)  # fmt: skip
+    runs = evaluate_text_to_motion(
+        recorder,
+        RecordingEvaluator(),
+        [Clip(16, [Caption("a")]), Clip(9, [Caption("b")])],
+        repeats=2,
+        seed=0,
+        num_steps=3,
+    )
     assert len(runs) == 2 and len(recorder.tokens) == 2
     assert [len(s) for s in recorder.all_tokens()] == [4, 2, 4, 2]
     with pytest.raises(ValueError, match="TextToMotion"):
@@ -239,8 +261,10 @@ def test_config_validation_and_eta_zero_is_uniform():
 
 def test_eta_and_distance_enter_the_cache_key(isolated_cache):
     extra = {"data": "x"}
-    key = lambda **kw: artefact_dir(MODEL_NAME, diffusion_training_config("smoke", num_codes=32, **kw),  # noqa: E731
-                                    "smoke", extra)  # fmt: skip
+
+    def key(**kw):
+        return artefact_dir(MODEL_NAME, diffusion_training_config("smoke", num_codes=32, **kw), "smoke", extra)
+
     assert key(eta=0.0) != key(eta=0.5)
     assert key(eta=0.5, distance="l2_rank") != key(eta=0.5, distance="cosine")
     assert key(eta=0.5) != key(eta=0.5, schedule="vqdiffusion_code")
@@ -288,8 +312,10 @@ def test_training_reduces_the_loss_and_is_cached(isolated_cache, tmp_path):
     extra = cache_extra(dataset, pipe.tokenizer, pipe.text_encoder.vocab)
     assert is_trained(MODEL_NAME, config, "smoke", extra)
     again = text_to_motion_for_dataset(dataset, "smoke", config=config, progress=False)  # loaded, not trained
-    assert all(torch.equal(a, b) for a, b in zip(pipe.model.state_dict().values(),
-                                                again.model.state_dict().values(), strict=True))  # fmt: skip
+    assert all(
+        torch.equal(a, b)
+        for a, b in zip(pipe.model.state_dict().values(), again.model.state_dict().values(), strict=True)
+    )
     assert again.history == pipe.history
 
     test = dataset.split("test")[:3]

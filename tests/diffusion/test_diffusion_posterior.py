@@ -73,8 +73,12 @@ def test_reverse_step_is_the_mixture_of_posteriors(eta):
     x0 = torch.randint(0, K, (B, L), generator=g)
     one_hot = torch.full((B, L, K), LOG_FLOOR).scatter(-1, x0[..., None], 0.0)
     x_t = q_sample(x0, tr.cumulative[3], g)
-    torch.testing.assert_close(log_p_posterior(one_hot, x_t, tr.one_step[3], tr.cumulative[2], tr.cumulative[3]).exp(),
-                               log_q_posterior(x0, x_t, tr.one_step[3], tr.cumulative[2]).exp(), atol=1e-5, rtol=0)
+    torch.testing.assert_close(
+        log_p_posterior(one_hot, x_t, tr.one_step[3], tr.cumulative[2], tr.cumulative[3]).exp(),
+        log_q_posterior(x0, x_t, tr.one_step[3], tr.cumulative[2]).exp(),
+        atol=1e-5,
+        rtol=0,
+    )
 
 
 def test_per_sample_matrices_equal_shared_ones():
@@ -102,8 +106,9 @@ def test_jump_posterior_equals_chained_single_step_posteriors():
             dist = torch.zeros(K + 1)
             dist[x_t] = 1.0
             for k in range(t, s, -1):  # push the distribution over x_k back to x_{k-1}
-                post = log_q_posterior(ids0.expand(1, K + 1), torch.arange(K + 1)[None], tr.one_step[k],
-                                       tr.cumulative[k - 1]).exp()[0]  # (K+1 values of x_k, K+1 of x_{k-1})
+                post = log_q_posterior(
+                    ids0.expand(1, K + 1), torch.arange(K + 1)[None], tr.one_step[k], tr.cumulative[k - 1]
+                ).exp()[0]  # (K+1 values of x_k, K+1 of x_{k-1})
                 dist = dist @ post
             torch.testing.assert_close(jump, dist, atol=1e-5, rtol=0)
 

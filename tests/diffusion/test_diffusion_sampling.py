@@ -70,8 +70,16 @@ def test_top_k_and_both():
 @pytest.mark.parametrize("num_steps", [None, 3, 1])
 def test_sampling_shapes_and_padding(setup, num_steps):
     model, tr, text = setup
-    ids = sample(model, tr, text, lengths=[5, 9, 2], generator=torch.Generator().manual_seed(0),
-                 num_steps=num_steps, guidance_scale=2.0, top_p=0.9)  # fmt: skip
+    ids = sample(
+        model,
+        tr,
+        text,
+        lengths=[5, 9, 2],
+        generator=torch.Generator().manual_seed(0),
+        num_steps=num_steps,
+        guidance_scale=2.0,
+        top_p=0.9,
+    )
     assert ids.shape == (3, 9) and ids.dtype == torch.long
     valid = torch.arange(9)[None] < torch.tensor([5, 9, 2])[:, None]
     assert ((ids >= 0) & (ids < K))[valid].all()
@@ -94,11 +102,25 @@ def test_neutral_guidance_matches_the_conditional_sampler(setup):
     """s = 0 needs no unconditional pass; both guidance spaces then coincide with it."""
     model, tr, text = setup
     x = torch.full((3, 6), K)
-    draws = [denoise_step(model, tr, x, T, T - 3, text, generator=torch.Generator().manual_seed(0),
-                          guidance_scale=0.0, guidance_on=space) for space in ("x0", "posterior")]  # fmt: skip
+    draws = [
+        denoise_step(
+            model,
+            tr,
+            x,
+            T,
+            T - 3,
+            text,
+            generator=torch.Generator().manual_seed(0),
+            guidance_scale=0.0,
+            guidance_on=space,
+        )
+        for space in ("x0", "posterior")
+    ]
     assert torch.equal(draws[0], draws[1])
-    guided = [denoise_step(model, tr, x, T, 0, text, generator=torch.Generator().manual_seed(s), guidance_scale=5.0)
-              for s in range(4)]  # fmt: skip
+    guided = [
+        denoise_step(model, tr, x, T, 0, text, generator=torch.Generator().manual_seed(s), guidance_scale=5.0)
+        for s in range(4)
+    ]
     plain = [denoise_step(model, tr, x, T, 0, text, generator=torch.Generator().manual_seed(s)) for s in range(4)]
     assert any(not torch.equal(a, b) for a, b in zip(guided, plain, strict=True))
 
@@ -168,7 +190,8 @@ def test_grouped_sampling_keeps_every_row_its_own_length(setup, monkeypatch):
     lengths = [4, 1, 7, 2, 7, 3]
     text = torch.randn(len(lengths), 4, D_TEXT, generator=torch.Generator().manual_seed(3))
     monkeypatch.setattr(sampling, "ROWS_PER_CALL", 2)
-    ids = sample(model, tr, text, lengths=lengths, generator=torch.Generator().manual_seed(0), num_steps=4,
-                 guidance_scale=2.0)  # fmt: skip
+    ids = sample(
+        model, tr, text, lengths=lengths, generator=torch.Generator().manual_seed(0), num_steps=4, guidance_scale=2.0
+    )
     for row, n in zip(ids, lengths):
         assert (row[:n] >= 0).all() and (row[:n] < K).all() and (row[n:] == -1).all()

@@ -73,7 +73,7 @@ def test_dynamic_beta_needs_a_schedule_with_replacement():
     cb = _codebook()
     for name, tiny in (("vqdiffusion_code", True), ("vqdiffusion_paper", False)):
         s = get_schedule(name, T=T)
-        gap = (build_transitions(s, codebook=cb, eta=2.0).cumulative - build_transitions(s, num_codes=K).cumulative)
+        gap = build_transitions(s, codebook=cb, eta=2.0).cumulative - build_transitions(s, num_codes=K).cumulative
         assert (gap.abs().max() < 1e-6) == tiny
         if not tiny:
             assert gap.abs().max() > 1e-3

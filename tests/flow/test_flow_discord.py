@@ -144,9 +144,14 @@ def test_feature_scale_round_trips_and_weighs_root_and_contacts():
     assert torch.equal(decoder(normalization="std").to_model_space(motion), motion)
 
 
-@pytest.mark.parametrize("saved,loaded", [({"prediction": "v"}, {"prediction": "x"}),
-                                          ({"prediction": "x"}, {"prediction": "v"}),
-                                          ({"normalization": "std"}, {"normalization": "feat_bias"})])
+@pytest.mark.parametrize(
+    "saved,loaded",
+    [
+        ({"prediction": "v"}, {"prediction": "x"}),
+        ({"prediction": "x"}, {"prediction": "v"}),
+        ({"normalization": "std"}, {"normalization": "feat_bias"}),
+    ],
+)
 def test_weights_refuse_to_load_under_another_parameterisation(tmp_path, saved, loaded):
     from motionlab.train.checkpoint import load_weights, save_weights
 
@@ -313,8 +318,12 @@ def test_config_rejects_bad_values():
         small_config(window=18)
     with pytest.raises(ValueError, match="solver"):
         small_config(solver="rk4")
-    for field, value in (("prediction", "eps"), ("normalization", "minmax"), ("time_distribution", "beta"),
-                         ("spacing", "cosine")):  # fmt: skip
+    for field, value in (
+        ("prediction", "eps"),
+        ("normalization", "minmax"),
+        ("time_distribution", "beta"),
+        ("spacing", "cosine"),
+    ):
         with pytest.raises(ValueError, match=field):
             small_config(**{field: value})
     with pytest.raises(ValueError, match="temperature"):
@@ -355,7 +364,6 @@ def test_smoke_profile_trains_with_the_shared_trainer():
     history = Trainer(dec, discord_loss_fn, batch_fn, cfg.train_config(log_every=10), progress=False).fit()
     assert history[-1]["loss"] < 0.8 * history[0]["loss"]
     assert dec.decode(pool_ids[:2]).shape == (2, cfg.window, D)
-
 
 
 def test_a_decoder_at_temperature_0_is_deterministic_and_says_so():

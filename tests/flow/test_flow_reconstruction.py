@@ -84,8 +84,17 @@ def test_scores_of_a_perfect_and_a_noisy_reconstruction(raw_clips):
     assert scores.noise_sjpe > scores.static_sjpe  # jitter adds jerk
     assert np.isclose(scores.sjpe, scores.noise_sjpe + scores.static_sjpe)
     assert np.isnan(reconstruction_scores(noisy, many).fid)  # no embedding, no FID
-    assert set(scores.as_dict()) == {"fid", "mpjpe_mm", "sjpe", "noise_sjpe", "static_sjpe", "sjpe_ratio",
-                                     "noise_sjpe_ratio", "static_sjpe_ratio", "joint_jerk"}
+    assert set(scores.as_dict()) == {
+        "fid",
+        "mpjpe_mm",
+        "sjpe",
+        "noise_sjpe",
+        "static_sjpe",
+        "sjpe_ratio",
+        "noise_sjpe_ratio",
+        "static_sjpe_ratio",
+        "joint_jerk",
+    }
 
 
 def test_input_checks(raw_clips, tokenizer):

@@ -74,8 +74,9 @@ def test_loss_rejects_bad_inputs():
 class TinyField(nn.Module):
     def __init__(self, width: int = 64) -> None:
         super().__init__()
-        self.net = nn.Sequential(nn.Linear(3, width), nn.SiLU(), nn.Linear(width, width), nn.SiLU(),
-                                 nn.Linear(width, 2))
+        self.net = nn.Sequential(
+            nn.Linear(3, width), nn.SiLU(), nn.Linear(width, width), nn.SiLU(), nn.Linear(width, 2)
+        )
 
     def forward(self, x, t, cond=None):
         return self.net(torch.cat([x, t[:, None]], dim=-1))
@@ -190,8 +191,16 @@ def test_x_prediction_implies_the_target_velocity_on_exact_data():
     x_t = interpolate(x0, x1, t)
     torch.testing.assert_close(velocity_from_data(x1, x_t, t), target_velocity(x0, x1), rtol=1e-12, atol=1e-12)
     # an x-predictor that returns the data itself (passed in as cond) has zero loss where 1 − t is unclamped
-    exact = flow_matching_loss(lambda x, tt, c: c, x1, x1, gen(0), prediction="x",
-                               time_distribution="logit_normal", time_loc=-3.0, time_scale=0.3)  # t < 0.2
+    exact = flow_matching_loss(
+        lambda x, tt, c: c,
+        x1,
+        x1,
+        gen(0),
+        prediction="x",
+        time_distribution="logit_normal",
+        time_loc=-3.0,
+        time_scale=0.3,
+    )  # t < 0.2
     assert exact.item() < 1e-20
     assert flow_matching_loss(lambda x, tt, c: c, x1, x1, gen(0), prediction="v").item() > 0.1
 

@@ -13,15 +13,20 @@ from motionlab.metrics import mean_ci
 
 
 def _runs(*sjpe):
-    return {"runs": [{"sjpe": s, "noise_sjpe": s / 2, "static_sjpe": s / 2, "fid": 1.0, "joint_jerk": 100.0}
-                     for s in sjpe], "seed_rms": 0.1}  # fmt: skip
+    return {
+        "runs": [{"sjpe": s, "noise_sjpe": s / 2, "static_sjpe": s / 2, "fid": 1.0, "joint_jerk": 100.0} for s in sjpe],
+        "seed_rms": 0.1,
+    }
 
 
 def _result(values_at_end, budget=10.0):
-    return {"budget_s": budget, "checkpoints": [
-        {"step": 10, "train_seconds": 5.0, "samplings": {"T1": _runs(3.0)}},
-        {"step": 20, "train_seconds": 10.0, "samplings": values_at_end},
-    ]}  # fmt: skip
+    return {
+        "budget_s": budget,
+        "checkpoints": [
+            {"step": 10, "train_seconds": 5.0, "samplings": {"T1": _runs(3.0)}},
+            {"step": 20, "train_seconds": 10.0, "samplings": values_at_end},
+        ],
+    }
 
 
 @pytest.fixture

@@ -80,8 +80,9 @@ def test_cached_weights_are_the_ema_average(dataset, tokenizer, isolated_cache):
 
 
 def test_decoding_shapes_after_training(dataset, tokenizer, isolated_cache):
-    decoder = train_or_load_discord(dataset, tokenizer, "smoke", config=tiny_config(tokenizer, train_steps=4),
-                                    progress=False)  # fmt: skip
+    decoder = train_or_load_discord(
+        dataset, tokenizer, "smoke", config=tiny_config(tokenizer, train_steps=4), progress=False
+    )
     clip = torch.as_tensor(dataset.normalized("test")[0][:44])[None]  # (1, 44, 263): 11 tokens
     ids = tokenizer.encode(clip)  # (1, 11, R)
     assert ids.shape == (1, 11, tokenizer.num_layers)

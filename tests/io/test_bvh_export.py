@@ -35,12 +35,19 @@ def test_rig_follows_the_t2m_tree():
         np.testing.assert_allclose(node.offset, T2M.offsets[j])
     helpers = [n for n in names if "_to_" in n]
     assert sorted(helpers) == sorted(
-        ["pelvis_to_left_hip", "pelvis_to_right_hip", "pelvis_to_spine1", "spine3_to_neck",
-         "spine3_to_left_collar", "spine3_to_right_collar"]
-    )  # fmt: skip
+        [
+            "pelvis_to_left_hip",
+            "pelvis_to_right_hip",
+            "pelvis_to_spine1",
+            "spine3_to_neck",
+            "spine3_to_left_collar",
+            "spine3_to_right_collar",
+        ]
+    )
     ends = [j for j in joints if j.end_site]
-    assert sorted(j.name for j in ends) == sorted(f"{n}_end" for n in ("left_foot", "right_foot", "head",
-                                                                       "left_wrist", "right_wrist"))  # fmt: skip
+    assert sorted(j.name for j in ends) == sorted(
+        f"{n}_end" for n in ("left_foot", "right_foot", "head", "left_wrist", "right_wrist")
+    )
 
 
 @pytest.mark.parametrize("family", FAMILIES)

@@ -207,8 +207,17 @@ def test_bvh_object_validates_its_fields():
     with pytest.raises(ValueError, match="frame_time"):
         Bvh((root,), np.zeros((2, 1)), -1.0)
     with pytest.raises(ValueError, match="depth-first"):
-        Bvh((root, BvhJoint("a", 0, (1, 0, 0)), BvhJoint("b", 1, (1, 0, 0)), BvhJoint("c", 1, (1, 0, 0)),
-             BvhJoint("d", 2, (1, 0, 0))), np.zeros((1, 1)), 0.1)  # fmt: skip
+        Bvh(
+            (
+                root,
+                BvhJoint("a", 0, (1, 0, 0)),
+                BvhJoint("b", 1, (1, 0, 0)),
+                BvhJoint("c", 1, (1, 0, 0)),
+                BvhJoint("d", 2, (1, 0, 0)),
+            ),
+            np.zeros((1, 1)),
+            0.1,
+        )
 
 
 def test_write_is_atomic(tmp_path, monkeypatch):

@@ -132,8 +132,10 @@ def test_mean_ci_and_estimate():
     mean, hw = mean_ci(vals, method="normal")  # the papers' formula
     assert mean == 2.5 and hw == pytest.approx(1.96 * np.std(vals) / 2)
     est = Estimate.from_values([0.1225, 0.1235], method="normal")  # std 0.0005 -> 1.96 * 0.0005 / sqrt(2)
-    assert str(est) == "0.123 ± 0.001" and est.n == 2
-    assert str(Estimate(0.123, 0.004)) == "0.123 ± 0.004"
+    assert str(est) == "0.12300 ± 0.00069" and est.n == 2  # two significant digits of the half-width
+    assert f"{est:.3f}" == "0.123 ± 0.001" and f"{Estimate(0.5, 0.0, 3):.2f}" == "0.50 ± 0.00"  # fixed: tables
+    assert str(Estimate(0.123, 0.004)) == "0.1230 ± 0.0040" and str(Estimate(0.2161)) == "0.216"
+    assert tuple(est) == (est.mean, est.half_width) and est.minus(est).half_width == pytest.approx(0.00069 * 2**0.5, 0.01)
     runs = summarize_runs([{"fid": 0.1, "top1": 0.5}, {"fid": 0.3, "top1": 0.5}])
     assert runs["fid"].mean == pytest.approx(0.2) and runs["top1"].half_width == 0.0
     with pytest.raises(ValueError, match="empty"):
@@ -149,7 +151,7 @@ def test_mean_ci_uses_students_t_by_default(n):
     low, high = stats.t.interval(0.95, n - 1, loc=vals.mean(), scale=stats.sem(vals))
     assert mean == pytest.approx(vals.mean()) and hw == pytest.approx((high - low) / 2, rel=1e-12)
     assert hw > mean_ci(vals, method="normal")[1]  # the papers' formula is narrower at every n
-    assert mean_ci([0.7]) == (0.7, 0.0)
+    assert tuple(mean_ci([0.7])) == (0.7, 0.0)
     est = Estimate.from_values(vals)
     assert est.excludes(mean + 1.01 * hw) and not est.excludes(mean + 0.99 * hw)
     with pytest.raises(ValueError, match="method"):

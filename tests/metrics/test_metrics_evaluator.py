@@ -35,21 +35,46 @@ def _gru(h: int, d: int) -> dict:
 
 
 def _head(h: int, out: int) -> dict:
-    return {"output_net.0.weight": (h, 2 * h), "output_net.0.bias": (h,), "output_net.1.weight": (h,),
-            "output_net.1.bias": (h,), "output_net.3.weight": (out, h), "output_net.3.bias": (out,)}  # fmt: skip
+    return {
+        "output_net.0.weight": (h, 2 * h),
+        "output_net.0.bias": (h,),
+        "output_net.1.weight": (h,),
+        "output_net.1.bias": (h,),
+        "output_net.3.weight": (out, h),
+        "output_net.3.bias": (out,),
+    }
 
 
 OFFICIAL_T2M = {
-    "movement_encoder": {"main.0.weight": (512, 259, 4), "main.0.bias": (512,), "main.3.weight": (512, 512, 4),
-                         "main.3.bias": (512,), "out_net.weight": (512, 512), "out_net.bias": (512,)},
-    "text_encoder": {"pos_emb.weight": (300, 15), "pos_emb.bias": (300,), "input_emb.weight": (512, 300),
-                     "input_emb.bias": (512,), "hidden": (2, 1, 512), **_gru(512, 512), **_head(512, 512)},
-    "motion_encoder": {"input_emb.weight": (1024, 512), "input_emb.bias": (1024,), "hidden": (2, 1, 1024),
-                       **_gru(1024, 1024), **_head(1024, 512)},
-}  # fmt: skip
+    "movement_encoder": {
+        "main.0.weight": (512, 259, 4),
+        "main.0.bias": (512,),
+        "main.3.weight": (512, 512, 4),
+        "main.3.bias": (512,),
+        "out_net.weight": (512, 512),
+        "out_net.bias": (512,),
+    },
+    "text_encoder": {
+        "pos_emb.weight": (300, 15),
+        "pos_emb.bias": (300,),
+        "input_emb.weight": (512, 300),
+        "input_emb.bias": (512,),
+        "hidden": (2, 1, 512),
+        **_gru(512, 512),
+        **_head(512, 512),
+    },
+    "motion_encoder": {
+        "input_emb.weight": (1024, 512),
+        "input_emb.bias": (1024,),
+        "hidden": (2, 1, 1024),
+        **_gru(1024, 1024),
+        **_head(1024, 512),
+    },
+}
 
-TINY = EvaluatorConfig(dim_text_hidden=8, dim_motion_hidden=12, dim_coemb=6, dim_movement_hidden=10,
-                       dim_movement_latent=10)  # fmt: skip
+TINY = EvaluatorConfig(
+    dim_text_hidden=8, dim_motion_hidden=12, dim_coemb=6, dim_movement_hidden=10, dim_movement_latent=10
+)
 
 
 def tiny_model(seed: int = 0) -> TextMotionEvaluator:
@@ -330,8 +355,9 @@ def test_official_evaluator_embeds_raw_features_as_the_official_loader(tmp_path)
     mean, std = (torch.as_tensor(np.load(meta / f)) for f in ("mean.npy", "std.npy"))
     with torch.no_grad():
         expected = official_embeddings(ev.model, clips, mean, std)
-    torch.testing.assert_close(ev.embed_motions(padded(clips, 197, 0.0), [len(c) for c in clips]), expected,
-                               rtol=0, atol=1e-5)  # fmt: skip
+    torch.testing.assert_close(
+        ev.embed_motions(padded(clips, 197, 0.0), [len(c) for c in clips]), expected, rtol=0, atol=1e-5
+    )
 
 
 def test_official_motion_batch_crops_zeroes_and_pads():

@@ -24,14 +24,19 @@ from motionlab.metrics.perturbations import add_frame_noise, smooth_in_time
 from motionlab.representation import Normalizer
 
 D = 263
-TINY_NETS = EvaluatorConfig(dim_word=16, dim_text_hidden=16, dim_motion_hidden=24, dim_coemb=16,
-                            dim_movement_hidden=24, dim_movement_latent=24)  # fmt: skip
+TINY_NETS = EvaluatorConfig(
+    dim_word=16, dim_text_hidden=16, dim_motion_hidden=24, dim_coemb=16, dim_movement_hidden=24, dim_movement_latent=24
+)
 TINY = EvaluatorTrainingConfig(TINY_NETS, steps=150, batch_size=16, lr=3e-3, grad_clip=1.0, max_frames=48)
 
 # Four toy "families": each moves its own block of feature dims at its own frequency, and its captions
 # name it with a family word among shared filler words.
-FAMILIES = {"wave": (0.05, slice(67, 100)), "kick": (0.12, slice(100, 140)),
-            "spin": (0.2, slice(140, 190)), "squat": (0.3, slice(190, 259))}  # fmt: skip
+FAMILIES = {
+    "wave": (0.05, slice(67, 100)),
+    "kick": (0.12, slice(100, 140)),
+    "spin": (0.2, slice(140, 190)),
+    "squat": (0.3, slice(190, 259)),
+}
 SUBJECTS = ("a/DET person/NOUN", "the/DET man/NOUN", "someone/PRON", "a/DET woman/NOUN")
 
 
@@ -55,8 +60,10 @@ class ToyDataset:
     def __init__(self, seed: int = 0):
         rng = np.random.default_rng(seed)
         fams = list(FAMILIES)
-        self.splits = {s: [toy_clip(f"{s}{i}", fams[i % 4], rng) for i in range(n)]
-                       for s, n in (("train", 64), ("val", 16), ("test", 32))}  # fmt: skip
+        self.splits = {
+            s: [toy_clip(f"{s}{i}", fams[i % 4], rng) for i in range(n)]
+            for s, n in (("train", 64), ("val", 16), ("test", 32))
+        }
         self.normalizer = Normalizer.fit([c.features for c in self.splits["train"]])
 
     def split(self, name: str):
@@ -113,8 +120,11 @@ def test_training_reduces_the_loss_and_retrieves_held_out_pairs(trained, toy):
     losses = [r["loss"] for r in trained.history if "loss" in r]
     assert np.mean(losses[-3:]) < 0.6 * np.mean(losses[:3])
     test = toy.split("test")
-    top = r_precision(trained.embed_texts([c.captions[0] for c in test]),
-                      trained.embed_motions([c.features for c in test]), batch_size=32)  # fmt: skip
+    top = r_precision(
+        trained.embed_texts([c.captions[0] for c in test]),
+        trained.embed_motions([c.features for c in test]),
+        batch_size=32,
+    )
     # chance for top-3 in batches of 32 is 3/32; clips of one family are interchangeable here, so the
     # ceiling is about 3/8 (8 clips per family in a batch)
     assert top[2] > 0.25 and top[0] <= top[1] <= top[2]

@@ -53,14 +53,26 @@ def test_handshake_windows_share_the_transition_around_each_boundary():
 
 def test_handshake_averages_the_predictions_of_overlapping_windows(tiny):
     _, tr = tiny
-    out = handshake_sample(TextPicker(), tr, (one_hot_texts([0, 1, 2]), None), [40, 40, 40], transition=16,
-                           generator=torch.Generator().manual_seed(0))  # fmt: skip
+    out = handshake_sample(
+        TextPicker(),
+        tr,
+        (one_hot_texts([0, 1, 2]), None),
+        [40, 40, 40],
+        transition=16,
+        generator=torch.Generator().manual_seed(0),
+    )
     seq = out.concatenated()[0]
     assert seq[:8].tolist() == [0] * 8 and seq[12:18].tolist() == [1] * 6 and seq[22:].tolist() == [2] * 8
     shared = [seq[8:12]]
     for seed in range(1, 6):
-        again = handshake_sample(TextPicker(), tr, (one_hot_texts([0, 1, 2]), None), [40, 40, 40], transition=16,
-                                 generator=torch.Generator().manual_seed(seed)).concatenated()[0]  # fmt: skip
+        again = handshake_sample(
+            TextPicker(),
+            tr,
+            (one_hot_texts([0, 1, 2]), None),
+            [40, 40, 40],
+            transition=16,
+            generator=torch.Generator().manual_seed(seed),
+        ).concatenated()[0]
         shared.append(again[8:12])
         assert set(again[18:22].tolist()) <= {1, 2}
     values = torch.cat(shared)
@@ -72,8 +84,17 @@ def test_handshake_averages_the_predictions_of_overlapping_windows(tiny):
 def test_handshake_keeps_the_requested_layout(tiny):
     model, tr = tiny
     text = torch.randn(3, 4, 8, generator=torch.Generator().manual_seed(2))
-    out = handshake_sample(model, tr, (text, None), [[40, 48], [24]], transition=16, num_steps=5,
-                           guidance_scale=1.5, top_p=0.9, generator=torch.Generator().manual_seed(0))  # fmt: skip
+    out = handshake_sample(
+        model,
+        tr,
+        (text, None),
+        [[40, 48], [24]],
+        transition=16,
+        num_steps=5,
+        guidance_scale=1.5,
+        top_p=0.9,
+        generator=torch.Generator().manual_seed(0),
+    )
     assert [len(s) for s in out.segments(0)] == [10, 12] and [len(s) for s in out.segments(1)] == [6]
     assert ((out.ids == -1) | ((out.ids >= 0) & (out.ids < K))).all() and (out.ids[2, 6:] == -1).all()
     assert out.boundaries(0) == [40]

@@ -52,8 +52,11 @@ def setup():
     for order in ([0, 1, 2], [3, 4, 5], [5, 0, 3], [2, 4, 1]):
         chosen = [clips[i] for i in order]
         lengths = tuple(min(c.length, 60) // 4 * 4 for c in chosen)
-        instances.append(MultiActionInstance(tuple(chosen), tuple(c.captions[0] for c in chosen),
-                                             tuple(FAMILIES[i] for i in order), lengths))  # fmt: skip
+        instances.append(
+            MultiActionInstance(
+                tuple(chosen), tuple(c.captions[0] for c in chosen), tuple(FAMILIES[i] for i in order), lengths
+            )
+        )
     evaluator = TableEvaluator()
     for inst in instances:
         for cap, seg in zip(inst.captions, inst.real_segments, strict=True):

@@ -41,8 +41,9 @@ def pipe(tiny):
     model, transitions = tiny
     encoder = WordTextEncoder.from_captions(TEXTS, dim=D_TEXT, n_layers=1, n_heads=2)
     decoder = TableDecoder()
-    return SimpleNamespace(model=model, transitions=transitions, text_encoder=encoder, decode=decoder.decode,
-                           decoder=decoder)  # fmt: skip
+    return SimpleNamespace(
+        model=model, transitions=transitions, text_encoder=encoder, decode=decoder.decode, decoder=decoder
+    )
 
 
 @pytest.mark.parametrize("method", METHODS)
@@ -108,11 +109,16 @@ class MeanStdEvaluator:
 def test_evaluate_methods_builds_table_rows(pipe):
     gen = MultiMotionGenerator.from_pipeline(pipe)
     rng = np.random.default_rng(0)
-    clips = [MotionClip(f"E{i}", rng.normal(0, 0.05, (60, 263)).astype(np.float32), [Caption(t, ("x/VERB",))])
-             for i, t in enumerate(TEXTS)]  # fmt: skip
-    instances = [MultiActionInstance(tuple(clips[j] for j in order), tuple(clips[j].captions[0] for j in order),
-                                     ("a", "b", "c"), (48, 48, 48))
-                 for order in ([0, 1, 2], [2, 0, 1], [1, 2, 0], [0, 2, 1])]  # fmt: skip
+    clips = [
+        MotionClip(f"E{i}", rng.normal(0, 0.05, (60, 263)).astype(np.float32), [Caption(t, ("x/VERB",))])
+        for i, t in enumerate(TEXTS)
+    ]
+    instances = [
+        MultiActionInstance(
+            tuple(clips[j] for j in order), tuple(clips[j].captions[0] for j in order), ("a", "b", "c"), (48, 48, 48)
+        )
+        for order in ([0, 1, 2], [2, 0, 1], [1, 2, 0], [0, 2, 1])
+    ]
     evaluator = MeanStdEvaluator()
     reference = build_reference(evaluator, [c.features for c in clips], rng=0, n_windows=20)
     methods = {"T_s = 5": {"method": "tps", "T_s": 5}, "SLERP": {"method": "slerp", "transition": 16}}

@@ -34,8 +34,12 @@ def clips():
 
 def _instance(clips, order, length=56):
     chosen = tuple(clips[i] for i in order)
-    return MultiActionInstance(chosen, tuple(c.captions[0] for c in chosen), tuple(FAMILIES[i] for i in order),
-                               tuple(min(c.length, length) // 4 * 4 for c in chosen))  # fmt: skip
+    return MultiActionInstance(
+        chosen,
+        tuple(c.captions[0] for c in chosen),
+        tuple(FAMILIES[i] for i in order),
+        tuple(min(c.length, length) // 4 * 4 for c in chosen),
+    )
 
 
 def test_windows_stay_inside_one_segment(clips):
@@ -93,8 +97,16 @@ def test_evaluate_methods_hands_back_the_scored_motions(clips):
     evaluator = MeanStd()
     reference = build_reference(evaluator, [c.features for c in clips], rng=0, n_windows=12)
     generated: dict = {}
-    rows = evaluate_methods(NoisyConcat(instances), instances, evaluator, reference, methods=["tps", "slerp"],
-                            repeats=2, seed=3, generated=generated)  # fmt: skip
+    rows = evaluate_methods(
+        NoisyConcat(instances),
+        instances,
+        evaluator,
+        reference,
+        methods=["tps", "slerp"],
+        repeats=2,
+        seed=3,
+        generated=generated,
+    )
     assert list(generated) == ["tps", "slerp"] and all(len(runs) == 2 for runs in generated.values())
     assert all(len(motions) == len(instances) for motions in generated["tps"])
     captions = [inst.captions for inst in instances]

@@ -43,8 +43,7 @@ def padded_text():
 def test_ts_equal_T_is_bit_identical_to_independent_sampling(tiny, padded_text, num_steps):
     model, tr = tiny
     tokens, pad = padded_text
-    out = two_phase_sample(model, tr, (tokens, pad), LENGTHS, T_s=T, generator=gen(3), num_steps=num_steps,
-                           **SAMPLING)  # fmt: skip
+    out = two_phase_sample(model, tr, (tokens, pad), LENGTHS, T_s=T, generator=gen(3), num_steps=num_steps, **SAMPLING)
     ref = sample(model, tr, tokens, pad, lengths=[4, 6, 2, 3, 5], generator=gen(3), num_steps=num_steps, **SAMPLING)
     assert torch.equal(out.ids, ref)
     alone = independent_sample(model, tr, (tokens, pad), LENGTHS, generator=gen(3), num_steps=num_steps, **SAMPLING)
@@ -83,8 +82,9 @@ def test_one_action_per_instance_makes_the_joint_phase_independent(tiny, padded_
     single = [[16], [24], [8], [12], [20]]
     ref = two_phase_sample(model, tr, padded_text, single, T_s=T, generator=gen(4), **SAMPLING).ids
     for T_s in (0, 6):
-        assert torch.equal(two_phase_sample(model, tr, padded_text, single, T_s=T_s, generator=gen(4), **SAMPLING).ids,
-                           ref)  # fmt: skip
+        assert torch.equal(
+            two_phase_sample(model, tr, padded_text, single, T_s=T_s, generator=gen(4), **SAMPLING).ids, ref
+        )
 
 
 def test_joint_phase_lets_tokens_depend_on_the_neighbours_text(tiny):
@@ -193,7 +193,8 @@ def test_compound_condition_changes_only_the_joint_phase(tiny):
     for joint_text in ("own", "all"):
         for ts in (T, 3):
             kw["generator"] = gen(0)
-            out[joint_text, ts] = two_phase_sample(model, tr, (text(3), None), lengths, T_s=ts, joint_text=joint_text,
-                                                   **kw).ids  # fmt: skip
+            out[joint_text, ts] = two_phase_sample(
+                model, tr, (text(3), None), lengths, T_s=ts, joint_text=joint_text, **kw
+            ).ids
     assert torch.equal(out["own", T], out["all", T])
     assert not torch.equal(out["own", 3], out["all", 3])

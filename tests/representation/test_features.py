@@ -37,7 +37,11 @@ def test_feature_dims_and_layout():
     assert T2M.feature_dim == 263 and KIT.feature_dim == 251
     s = feature_slices("t2m")
     assert (s["ric"], s["rot"], s["local_vel"], s["foot_contact"]) == (
-        slice(4, 67), slice(67, 193), slice(193, 259), slice(259, 263))  # fmt: skip
+        slice(4, 67),
+        slice(67, 193),
+        slice(193, 259),
+        slice(259, 263),
+    )
     assert feature_slices("kit")["foot_contact"] == slice(247, 251)
 
 
@@ -49,7 +53,8 @@ def test_procedural_round_trip_is_exact(skeleton):
     feats = processed.features
     assert feats.shape == (len(joints) - 1, sk.feature_dim)
     assert np.abs(recover_from_ric(feats, sk.n_joints) - processed.joints[:-1]).max() < 1e-5 * (
-        1000 if sk.unit == "mm" else 1)
+        1000 if sk.unit == "mm" else 1
+    )
     assert np.abs(recover_from_rot(feats) - processed.joints[:-1]).max() < 1e-5 * (1000 if sk.unit == "mm" else 1)
 
 

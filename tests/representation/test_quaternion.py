@@ -93,8 +93,9 @@ def test_euler_intrinsic_order():
     # Intrinsic ZXY: rotate about Z, then about the new X, then about the new Y: R = Rz @ Rx @ Ry.
     ang = np.array([30.0, 45.0, 60.0])
     axes = {"Z": [0.0, 0, 1], "X": [1.0, 0, 0], "Y": [0.0, 1, 0]}
-    rz, rx, ry = (quat_to_matrix(axis_angle_to_quat(np.array(axes[k]), np.deg2rad(np.array(a))))
-                  for k, a in zip("ZXY", ang))  # fmt: skip
+    rz, rx, ry = (
+        quat_to_matrix(axis_angle_to_quat(np.array(axes[k]), np.deg2rad(np.array(a)))) for k, a in zip("ZXY", ang)
+    )
     assert np.allclose(quat_to_matrix(euler_to_quat(ang, "ZXY")), rz @ rx @ ry, atol=1e-9)
     with pytest.raises(ValueError, match="permutation"):
         euler_to_quat(ang, "XXY")

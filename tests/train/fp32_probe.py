@@ -24,8 +24,9 @@ def digest(*values) -> str:
             for key in sorted(value):
                 h.update(key.encode())
                 item = value[key]
-                h.update(item.detach().cpu().contiguous().numpy().tobytes() if torch.is_tensor(item)
-                         else repr(item).encode())  # fmt: skip
+                h.update(
+                    item.detach().cpu().contiguous().numpy().tobytes() if torch.is_tensor(item) else repr(item).encode()
+                )
         elif torch.is_tensor(value):
             h.update(value.detach().cpu().contiguous().numpy().tobytes())
         else:
@@ -59,8 +60,9 @@ def main(folder: str) -> None:
     pipe = text_to_motion_for_dataset(dataset, "smoke", progress=False)
     motion = pipe.generate(["a person walks forward"], [48], seed=3)[0]
     out["diffusion"] = digest(pipe.model.state_dict(), pipe.text_encoder.state_dict(), motion)
-    multi = MultiMotionGenerator.from_pipeline(pipe).generate(["a person walks", "a person jumps"], [40, 40],
-                                                              method="tps", seed=2)[0]  # fmt: skip
+    multi = MultiMotionGenerator.from_pipeline(pipe).generate(
+        ["a person walks", "a person jumps"], [40, 40], method="tps", seed=2
+    )[0]
     out["tps"] = digest(multi.features)
     print(json.dumps(out))
 

@@ -58,8 +58,12 @@ def test_plan_checks_and_estimates():
         check_plan([Job("b", print, after=("a",)), Job("a", print)])
     with pytest.raises(ValueError, match="twice"):
         check_plan([Job("a", print), Job("a", print)])
-    jobs = [Job("data", print, estimate_s=10), Job("x", print, ("data",), 100), Job("y", print, ("data",), 60),
-            Job("z", print, ("data",), 30)]  # fmt: skip
+    jobs = [
+        Job("data", print, estimate_s=10),
+        Job("x", print, ("data",), 100),
+        Job("y", print, ("data",), 60),
+        Job("z", print, ("data",), 30),
+    ]
     assert expected_wall_seconds(jobs, 1) == 200 and expected_wall_seconds(jobs, 2) == 110
     assert "4 models" in plan_line(jobs, 2) and "about 1.8 min with 2 workers" in plan_line(jobs, 2)
     assert plan_line([Job("a", print, is_cached=lambda: True)]) == ""
@@ -98,8 +102,9 @@ if __name__ == "__main__":
 def test_ctrl_c_keeps_finished_models_and_a_second_run_resumes(tmp_path):
     script = tmp_path / "plan.py"
     script.write_text(textwrap.dedent(SCRIPT))
-    proc = subprocess.Popen([sys.executable, str(script), str(tmp_path)], stdout=subprocess.PIPE, text=True,
-                            start_new_session=True)  # fmt: skip
+    proc = subprocess.Popen(
+        [sys.executable, str(script), str(tmp_path)], stdout=subprocess.PIPE, text=True, start_new_session=True
+    )
     lines = []
     for line in proc.stdout:  # wait until the second job is running
         lines.append(line)

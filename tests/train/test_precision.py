@@ -129,13 +129,18 @@ def test_bf16_training_keeps_weights_and_optimizer_state_fp32():
         return {"loss": ((out.float() - x) ** 2).mean()}
 
     model = nn.Sequential(nn.Linear(32, 64), nn.ReLU(), nn.Linear(64, 32))
-    trainer = Trainer(model, loss_fn, batches, TrainConfig(steps=5, lr=1e-2, ema_decay=0.9), precision="bf16",
-                      progress=False)  # fmt: skip
+    trainer = Trainer(
+        model, loss_fn, batches, TrainConfig(steps=5, lr=1e-2, ema_decay=0.9), precision="bf16", progress=False
+    )
     history = trainer.fit()
     assert trainer.precision == "bf16" and history[-1]["loss"] < history[0]["loss"] * 1.5
     assert all(p.dtype == torch.float32 for p in model.parameters())
-    assert all(v.dtype == torch.float32 for s in trainer.optimizer.state.values() for v in s.values()
-               if torch.is_tensor(v) and v.is_floating_point())  # fmt: skip
+    assert all(
+        v.dtype == torch.float32
+        for s in trainer.optimizer.state.values()
+        for v in s.values()
+        if torch.is_tensor(v) and v.is_floating_point()
+    )
 
 
 def test_quantizer_picks_codes_in_fp32_under_autocast():
@@ -170,8 +175,9 @@ def _extract_library_before(tmp: Path) -> Path | None:
     if shutil.which("git") is None or not (REPO / ".git").exists():
         return None
     archive = tmp / "before.tar"
-    done = subprocess.run(["git", "-C", str(REPO), "archive", "-o", str(archive), BEFORE_PRECISION, "src"],
-                          capture_output=True)  # fmt: skip
+    done = subprocess.run(
+        ["git", "-C", str(REPO), "archive", "-o", str(archive), BEFORE_PRECISION, "src"], capture_output=True
+    )
     if done.returncode != 0:  # a shallow clone without that commit
         return None
     with tarfile.open(archive) as tar:
@@ -180,10 +186,21 @@ def _extract_library_before(tmp: Path) -> Path | None:
 
 
 def _probe(folder: Path, home: Path, src: Path | None) -> dict:
-    env = {**os.environ, "MOTIONLAB_HOME": str(home), "MOTIONLAB_PRECISION": "fp32", "MOTIONLAB_THREADS": "1",
-           "OMP_NUM_THREADS": "1", "PYTHONPATH": str(src) if src else ""}  # fmt: skip
-    done = subprocess.run([sys.executable, str(Path(__file__).with_name("fp32_probe.py")), str(folder)], env=env,
-                          capture_output=True, text=True, timeout=900)  # fmt: skip
+    env = {
+        **os.environ,
+        "MOTIONLAB_HOME": str(home),
+        "MOTIONLAB_PRECISION": "fp32",
+        "MOTIONLAB_THREADS": "1",
+        "OMP_NUM_THREADS": "1",
+        "PYTHONPATH": str(src) if src else "",
+    }
+    done = subprocess.run(
+        [sys.executable, str(Path(__file__).with_name("fp32_probe.py")), str(folder)],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
     assert done.returncode == 0, done.stderr[-3000:]
     return json.loads(done.stdout.strip().splitlines()[-1])
 

@@ -13,15 +13,32 @@ def _record(precision: str, scale: float) -> dict:
     def cell(mean, half, n=5):
         return {"mean": mean, "ci95": half, "n": n}
 
-    reconstruction = {"deterministic": ["RVQ-VAE decoder (deterministic)"], "rows": {
-        "RVQ-VAE decoder (deterministic)": {"mpjpe_mm": cell(50 * scale, 0.0, 1), "fid": cell(0.1 * scale, 0.0, 1)},
-        "RVQ tokens + DisCoRD (8 midpoint)": {"sjpe": cell(1.5, 0.1), "fid": cell(0.2, 0.05)}}}  # fmt: skip
-    t2m = {"rows": {"Ground Truth": {"top1": cell(0.6, 0.01)},
-                    "Discrete diffusion + VQ-VAE decoder": {"fid": cell(30 * scale, 2.0), "top1": cell(0.4, 0.02),
-                                                             "top3": cell(0.7, 0.02)}}}  # fmt: skip
-    return {"precision": precision, "profile": "laptop", "cpu": "Test CPU (amx_bf16)", "started": "2026-12-02 08:00",
-            "training": {"rvq": {"cpu_seconds": 200.0 / (1 if precision == "fp32" else 1.5)}},
-            "reconstruction": {"table": reconstruction}, "t2m": {"table": t2m}}  # fmt: skip
+    reconstruction = {
+        "deterministic": ["RVQ-VAE decoder (deterministic)"],
+        "rows": {
+            "RVQ-VAE decoder (deterministic)": {"mpjpe_mm": cell(50 * scale, 0.0, 1), "fid": cell(0.1 * scale, 0.0, 1)},
+            "RVQ tokens + DisCoRD (8 midpoint)": {"sjpe": cell(1.5, 0.1), "fid": cell(0.2, 0.05)},
+        },
+    }
+    t2m = {
+        "rows": {
+            "Ground Truth": {"top1": cell(0.6, 0.01)},
+            "Discrete diffusion + VQ-VAE decoder": {
+                "fid": cell(30 * scale, 2.0),
+                "top1": cell(0.4, 0.02),
+                "top3": cell(0.7, 0.02),
+            },
+        }
+    }
+    return {
+        "precision": precision,
+        "profile": "laptop",
+        "cpu": "Test CPU (amx_bf16)",
+        "started": "2026-12-02 08:00",
+        "training": {"rvq": {"cpu_seconds": 200.0 / (1 if precision == "fp32" else 1.5)}},
+        "reconstruction": {"table": reconstruction},
+        "t2m": {"table": t2m},
+    }
 
 
 def test_parity_tables_compare_each_number_within_its_interval(tmp_path):

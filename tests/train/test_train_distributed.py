@@ -65,8 +65,13 @@ def test_two_ranks_match_one_process_and_resume(tmp_path):
         import ddp_script  # the same functions, in this single process
     finally:
         sys.path.remove(str(tmp_path))
-    single = Trainer(ddp_script.build(), ddp_script.loss_fn, ddp_script.batch_fn,
-                     TrainConfig(steps=6, lr=1e-2, grad_clip=1.0, ema_decay=0.9), progress=False)  # fmt: skip
+    single = Trainer(
+        ddp_script.build(),
+        ddp_script.loss_fn,
+        ddp_script.batch_fn,
+        TrainConfig(steps=6, lr=1e-2, grad_clip=1.0, ema_decay=0.9),
+        progress=False,
+    )
     single.fit()
     for name, value in single.model.state_dict().items():
         assert torch.equal(rank0[name], rank1[name]), f"ranks disagree on {name}"
@@ -84,7 +89,12 @@ def test_shard_batch_splits_nested_batches():
 
 def test_single_process_context_changes_nothing():
     model = nn.Linear(2, 1)
-    trainer = Trainer(model, lambda m, b, g: {"loss": m(b).pow(2).mean()}, lambda s, g: torch.randn(4, 2, generator=g),
-                      TrainConfig(steps=2), progress=False)  # fmt: skip
+    trainer = Trainer(
+        model,
+        lambda m, b, g: {"loss": m(b).pow(2).mean()},
+        lambda s, g: torch.randn(4, 2, generator=g),
+        TrainConfig(steps=2),
+        progress=False,
+    )
     assert not trainer.dist.enabled and trainer.dist.is_main
     trainer.fit()

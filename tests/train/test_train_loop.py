@@ -171,8 +171,9 @@ def test_periodic_checkpoints_and_validation(tmp_path):
         calls.append(model.training)
         return {"mse": 1.0}
 
-    history = Trainer(make_model(), noisy_mse, regression_batch, cfg, val_fn=val_fn, workdir=tmp_path,
-                      progress=False).fit()  # fmt: skip
+    history = Trainer(
+        make_model(), noisy_mse, regression_batch, cfg, val_fn=val_fn, workdir=tmp_path, progress=False
+    ).fit()
     assert [p.name for p in list_checkpoints(tmp_path)] == ["step_00000008", "step_00000012"]
     assert calls == [False, False]  # validated twice, in eval mode
     assert [r["step"] for r in history if "val_mse" in r] == [6, 12]

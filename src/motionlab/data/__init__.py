@@ -18,6 +18,18 @@ from .humanml3d import (
 )
 
 __all__ = [
-    "KINDS", "SPLITS", "Caption", "DatasetKind", "MotionClip", "MotionDataset", "check_dataset", "crop_to_unit",
-    "floor_to_unit", "format_caption_line", "load_dataset", "parse_caption_line", "read_captions", "read_split_ids",
-]  # fmt: skip
+    "KINDS",
+    "SPLITS",
+    "Caption",
+    "DatasetKind",
+    "MotionClip",
+    "MotionDataset",
+    "check_dataset",
+    "crop_to_unit",
+    "floor_to_unit",
+    "format_caption_line",
+    "load_dataset",
+    "parse_caption_line",
+    "read_captions",
+    "read_split_ids",
+]

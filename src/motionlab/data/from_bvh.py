@@ -166,8 +166,10 @@ def read_captions_csv(path: str | os.PathLike) -> dict[str, dict[tuple[int, int 
         header = [h.strip().lower() for h in next(reader, [])]
         unknown = [h for h in header if h not in CSV_COLUMNS]
         if unknown or not {"take", "caption"} <= set(header) or len(set(header)) != len(header):
-            raise ValueError(f"{path}: the header must name the columns take, caption and optionally start, end "
-                             f"(each once), got {', '.join(header) or 'an empty file'}")  # fmt: skip
+            raise ValueError(
+                f"{path}: the header must name the columns take, caption and optionally start, end "
+                f"(each once), got {', '.join(header) or 'an empty file'}"
+            )
         for row in reader:
             if not any(cell.strip() for cell in row):
                 continue
@@ -196,8 +198,9 @@ def list_takes(folder: str | os.PathLike) -> list[Path]:
     """The ``.bvh`` files directly in ``folder`` (any case of the suffix), sorted by name."""
     folder = Path(folder)
     if not folder.is_dir():
-        raise FileNotFoundError(f"BVH folder {folder} does not exist" if not folder.exists()
-                                else f"{folder} is not a folder")  # fmt: skip
+        raise FileNotFoundError(
+            f"BVH folder {folder} does not exist" if not folder.exists() else f"{folder} is not a folder"
+        )
     takes = sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() == ".bvh")
     if not takes:
         raise ValueError(f"no .bvh files in {folder} (subfolders are not searched)")
@@ -240,8 +243,10 @@ def plan_clips(
         stems = {p.stem for p in takes}
         unused = sorted(t for t in captions if t not in stems)
         if unused:
-            notes.append(f"the captions CSV names {len(unused)} take(s) not in the folder: {', '.join(unused[:10])}"
-                         + (" ..." if len(unused) > 10 else ""))  # fmt: skip
+            notes.append(
+                f"the captions CSV names {len(unused)} take(s) not in the folder: {', '.join(unused[:10])}"
+                + (" ..." if len(unused) > 10 else "")
+            )
     return plans, skipped, notes
 
 
@@ -256,8 +261,10 @@ def convert_clip(path: Path, plan: ClipPlan, rig: BvhRig) -> tuple[np.ndarray, n
         raise _Skip(f"unreadable: {str(err).removeprefix(f'{path}: ')}") from None
     missing = [rig.joint_map[t] for t in T2M.joint_names if rig.joint_map[t] not in bvh.names]
     if missing:
-        raise _Skip(f"wrong skeleton for the {rig.name!r} mapping: no joint {', '.join(missing[:6])}"
-                    + (f" (+{len(missing) - 6} more)" if len(missing) > 6 else ""))  # fmt: skip
+        raise _Skip(
+            f"wrong skeleton for the {rig.name!r} mapping: no joint {', '.join(missing[:6])}"
+            + (f" (+{len(missing) - 6} more)" if len(missing) > 6 else "")
+        )
     try:
         joints = bvh_to_joints(bvh, dict(rig.joint_map), rig.scale, rig.up, FPS, plan.start, plan.end)  # (T, 22, 3)
     except ValueError as err:
@@ -265,11 +272,15 @@ def convert_clip(path: Path, plan: ClipPlan, rig: BvhRig) -> tuple[np.ndarray, n
     kind = KINDS["humanml3d"]
     rows = len(joints) - 1  # feature frames
     if rows < kind.min_length:
-        raise _Skip(f"too short: {rows} frames at 20 fps ({rows / FPS:.1f} s); HumanML3D's loaders need at least "
-                    f"{kind.min_length}")  # fmt: skip
+        raise _Skip(
+            f"too short: {rows} frames at 20 fps ({rows / FPS:.1f} s); HumanML3D's loaders need at least "
+            f"{kind.min_length}"
+        )
     if rows >= kind.max_length:
-        raise _Skip(f"too long: {rows} frames at 20 fps ({rows / FPS:.1f} s); HumanML3D's loaders keep fewer than "
-                    f"{kind.max_length}: crop it with start/end columns in a captions CSV")  # fmt: skip
+        raise _Skip(
+            f"too long: {rows} frames at 20 fps ({rows / FPS:.1f} s); HumanML3D's loaders keep fewer than "
+            f"{kind.max_length}: crop it with start/end columns in a captions CSV"
+        )
     try:
         features = joints_to_features(joints, T2M).astype(np.float32)  # (T-1, 263)
     except ValueError as err:
@@ -312,8 +323,10 @@ def _prepare_out(out: Path, folder: Path, force: bool) -> tuple[dict | None, boo
         shutil.rmtree(out)
         return None, True
     if previous is None:
-        raise FileExistsError(f"out {out} exists, is not empty and is not an earlier from-bvh output; "
-                              "pass --force (force=True) to replace it")  # fmt: skip
+        raise FileExistsError(
+            f"out {out} exists, is not empty and is not an earlier from-bvh output; "
+            "pass --force (force=True) to replace it"
+        )
     return previous, False
 
 
@@ -332,8 +345,10 @@ def _assign_splits(ids: list[str], seed: int) -> tuple[dict[str, list[str]], lis
     splits = stratified_split({"all": ids}, np.random.default_rng(seed))
     if splits["val"]:
         return splits, []
-    note = (f"only {len(ids)} clip(s): val and test repeat the training clips, so scores on them are not "
-            "held-out scores; convert at least 3 takes")  # fmt: skip
+    note = (
+        f"only {len(ids)} clip(s): val and test repeat the training clips, so scores on them are not "
+        "held-out scores; convert at least 3 takes"
+    )
     return {"train": list(ids), "val": list(ids), "test": list(ids)}, [note]
 
 
@@ -382,13 +397,24 @@ def dataset_from_bvh(
     existed = out.exists()
 
     plans, skipped, notes = plan_clips(takes, table)
-    settings = {"fps": FPS, "rig": rig.name, "joint_map": dict(rig.joint_map), "scale": rig.scale, "up": rig.up,
-                "version": VERSION}  # fmt: skip
+    settings = {
+        "fps": FPS,
+        "rig": rig.name,
+        "joint_map": dict(rig.joint_map),
+        "scale": rig.scale,
+        "up": rig.up,
+        "version": VERSION,
+    }
     old_clips = previous["clips"] if previous is not None and previous.get("settings") == settings else {}
     make_layout(out)
     # Clips of the earlier run stay listed until this run decides on them, so an interrupted run loses nothing.
-    meta = {"generator": GENERATOR, "settings": settings, "seed": int(seed), "complete": False,
-            "clips": dict(old_clips)}  # fmt: skip
+    meta = {
+        "generator": GENERATOR,
+        "settings": settings,
+        "seed": int(seed),
+        "complete": False,
+        "clips": dict(old_clips),
+    }
     report = FromBvhReport(out=out, skipped=skipped, notes=notes)
     show = _Progress(progress)
     show.phase(f"{len(takes)} takes in {folder}, {len(plans)} clips to make, into {out}")
@@ -416,8 +442,10 @@ def dataset_from_bvh(
                 report.convert_seconds += time.perf_counter() - t
         bar.update()
     bar.close()
-    show.phase(f"converted {len(report.converted)} clips in {report.convert_seconds:.1f} s, reused "
-               f"{len(report.reused)}, skipped {len(skipped)}")  # fmt: skip
+    show.phase(
+        f"converted {len(report.converted)} clips in {report.convert_seconds:.1f} s, reused "
+        f"{len(report.reused)}, skipped {len(skipped)}"
+    )
 
     ids = report.clips
     meta["clips"] = {i: meta["clips"][i] for i in ids}

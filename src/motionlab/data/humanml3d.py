@@ -220,8 +220,10 @@ class MotionDataset:
             raise ValueError(f"unknown dataset kind {kind!r}; expected one of {', '.join(KINDS)}")
         self.kind = KINDS[kind or inferred]
         if self.kind.feature_dim != self.normalizer.dim:
-            raise ValueError(f"{self.root}: Mean.npy has {self.normalizer.dim} dims but kind {self.kind.name!r} "
-                             f"expects {self.kind.feature_dim}")  # fmt: skip
+            raise ValueError(
+                f"{self.root}: Mean.npy has {self.normalizer.dim} dims but kind {self.kind.name!r} "
+                f"expects {self.kind.feature_dim}"
+            )
         self._cache: dict[tuple, list[MotionClip]] = {}
 
     @property
@@ -265,8 +267,9 @@ class MotionDataset:
             if not feat_path.is_file() or not text_path.is_file():
                 continue  # the public loaders skip ids without data the same way
             try:  # read_motion=False reads the header only: the shape is all the length filter needs
-                motion = (np.load(feat_path, allow_pickle=False).astype(np.float32) if read_motion
-                          else _shape_only(feat_path))  # fmt: skip
+                motion = (
+                    np.load(feat_path, allow_pickle=False).astype(np.float32) if read_motion else _shape_only(feat_path)
+                )
             except (OSError, ValueError) as err:
                 raise ValueError(f"{feat_path} cannot be read ({err})") from None
             if motion.ndim != 2 or motion.shape[1] != kind.feature_dim:

@@ -37,8 +37,11 @@ def make_layout(folder: str | os.PathLike) -> Path:
 def clip_files(folder: str | os.PathLike, clip_id: str) -> tuple[Path, Path, Path]:
     """The three files of a clip: features, joints, captions."""
     folder = Path(folder)
-    return (folder / "new_joint_vecs" / f"{clip_id}.npy", folder / "new_joints" / f"{clip_id}.npy",
-            folder / "texts" / f"{clip_id}.txt")  # fmt: skip
+    return (
+        folder / "new_joint_vecs" / f"{clip_id}.npy",
+        folder / "new_joints" / f"{clip_id}.npy",
+        folder / "texts" / f"{clip_id}.txt",
+    )
 
 
 def write_clip(

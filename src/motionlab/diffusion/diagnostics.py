@@ -138,8 +138,9 @@ def x0_entropy(
     rows = token_rows(x0)
     steps = [int(t) for t in timesteps]
     if not steps or any(not 1 <= t <= transitions.T for t in steps):
-        raise ValueError(f"timesteps must be a non-empty list of steps in [1, T={transitions.T}], "
-                         f"got {list(timesteps)}")
+        raise ValueError(
+            f"timesteps must be a non-empty list of steps in [1, T={transitions.T}], got {list(timesteps)}"
+        )
     if not torch.is_tensor(text) or text.ndim != 3 or text.shape[0] != rows.shape[0]:
         raise ValueError(f"text must be (B={rows.shape[0]}, S, d) features, got {tuple(getattr(text, 'shape', ()))}")
     dev = text.device
@@ -163,8 +164,13 @@ def x0_entropy(
         true = -log_p.gather(-1, clean[..., None]).squeeze(-1)  # (B, L)
         entropy.append(float((h * real).sum() / real.sum()))
         nll.append(float((true * real).sum() / real.sum()))
-    return EntropyCurve(tuple(steps), torch.tensor(entropy, dtype=torch.float64),
-                        torch.tensor(nll, dtype=torch.float64), float(guidance_scale), condition)  # fmt: skip
+    return EntropyCurve(
+        tuple(steps),
+        torch.tensor(entropy, dtype=torch.float64),
+        torch.tensor(nll, dtype=torch.float64),
+        float(guidance_scale),
+        condition,
+    )
 
 
 # ------------------------------------------------------------------------------------ forward processes

@@ -100,8 +100,9 @@ def diffusion_loss(
     x_t = q_sample(x0, transitions.cumulative[t.to(transitions.cumulative.device)], generator).to(x0.device)
     if padding_mask is not None:
         x_t = x_t.masked_fill(padding_mask, K)
-    log_p_x0 = model(x_t, t, text, text_padding_mask, padding_mask=padding_mask,
-                     cond_drop_prob=cond_drop_prob, generator=generator)  # fmt: skip
+    log_p_x0 = model(
+        x_t, t, text, text_padding_mask, padding_mask=padding_mask, cond_drop_prob=cond_drop_prob, generator=generator
+    )
     vb, aux = vb_terms(log_p_x0, x0, x_t, t, transitions)  # (B, L) each
     weight = torch.ones_like(vb) if padding_mask is None else (~padding_mask).to(vb.dtype)
     denom = weight.sum().clamp_min(1.0)

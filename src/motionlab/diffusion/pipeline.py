@@ -60,9 +60,7 @@ def check_lengths(lengths_in_frames: Sequence[int], n_texts: int, unit: int = FR
         raise ValueError(f"lengths_in_frames has {len(lengths)} entries but there are {n_texts} texts")
     for i, n in enumerate(lengths):
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < unit or n % unit:
-            raise ValueError(
-                f"lengths_in_frames[{i}] = {n!r}: lengths must be positive multiples of {unit} frames"
-            )
+            raise ValueError(f"lengths_in_frames[{i}] = {n!r}: lengths must be positive multiples of {unit} frames")
     return [int(n) for n in lengths]
 
 
@@ -131,15 +129,26 @@ class TextToMotion:
             rows = order[s : s + batch_size]
             feats = self.encode_texts([texts[i] for i in rows])
             chunk = [tokens[i] for i in rows]
-            ids = sample(self.model, self.transitions, feats.tokens, feats.padding_mask, lengths=chunk,
-                         generator=generator, num_steps=num_steps, guidance_scale=scale,
-                         guidance_on=guidance_on, top_p=top_p, top_k=top_k)  # fmt: skip
+            ids = sample(
+                self.model,
+                self.transitions,
+                feats.tokens,
+                feats.padding_mask,
+                lengths=chunk,
+                generator=generator,
+                num_steps=num_steps,
+                guidance_scale=scale,
+                guidance_on=guidance_on,
+                top_p=top_p,
+                top_k=top_k,
+            )
             out[rows, : ids.shape[1]] = ids.cpu()
         return out
 
     @torch.no_grad()
-    def decode(self, ids: Tensor, decoder: Any = None, *, generator: torch.Generator | None = None,
-               steps: int | None = None) -> list[np.ndarray]:  # fmt: skip
+    def decode(
+        self, ids: Tensor, decoder: Any = None, *, generator: torch.Generator | None = None, steps: int | None = None
+    ) -> list[np.ndarray]:
         """Ids ``(B, L)`` padded with −1 → one raw (denormalised) ``(4·n_b, 263)`` array per row.
 
         ``decoder`` None uses the tokenizer's feed-forward decoder; otherwise an object with
@@ -224,8 +233,11 @@ def cache_extra(dataset, tokenizer, vocabulary) -> dict[str, str]:
     """What identifies a trained model besides its config: the data, the exact codebook, the vocabulary."""
     codebook = tokenizer.codebook().detach().cpu().float().numpy()
     words = "\n".join(vocabulary.tokens).encode()
-    return {"data": dataset.key, "codebook": f"{codebook.shape[0]}-{_digest(codebook.tobytes())}",
-            "vocabulary": f"{len(vocabulary)}-{_digest(words)}"}  # fmt: skip
+    return {
+        "data": dataset.key,
+        "codebook": f"{codebook.shape[0]}-{_digest(codebook.tobytes())}",
+        "vocabulary": f"{len(vocabulary)}-{_digest(words)}",
+    }
 
 
 def _train_captions(clips) -> list[list[str]]:
@@ -258,15 +270,12 @@ def text_to_motion_for_dataset(
 
     for name in ("split", "normalized", "normalizer", "key"):
         if not hasattr(dataset, name):
-            raise ValueError(
-                f"dataset must be a MotionDataset (split, normalized, normalizer, key); it lacks {name!r}"
-            )
+            raise ValueError(f"dataset must be a MotionDataset (split, normalized, normalizer, key); it lacks {name!r}")
     profile = get_profile(profile)
     tokenizer = tokenizer_for_dataset("vq", dataset, profile, device=device, progress=progress)
     K = tokenizer.codebook_size
     if config is None:
-        config = diffusion_training_config(profile, num_codes=K, eta=eta, distance=distance,
-                                           schedule=schedule)  # fmt: skip
+        config = diffusion_training_config(profile, num_codes=K, eta=eta, distance=distance, schedule=schedule)
     elif eta is not None or distance != "l2_rank" or schedule is not None:
         raise ValueError("pass either config= or eta/distance/schedule, not both")
     if seed is not None:
@@ -274,9 +283,7 @@ def text_to_motion_for_dataset(
             raise ValueError(f"seed must be a non-negative int, got {seed!r}")
         config = with_overrides(config, seed=int(seed))
     if config.transformer.num_codes != K:
-        raise ValueError(
-            f"config.transformer.num_codes={config.transformer.num_codes} but the tokenizer has {K} codes"
-        )
+        raise ValueError(f"config.transformer.num_codes={config.transformer.num_codes} but the tokenizer has {K} codes")
     clips = dataset.split("train")
     captions = _train_captions(clips)
     vocabulary = build_vocabulary(captions, config)
@@ -288,17 +295,24 @@ def text_to_motion_for_dataset(
 
     def train_fn(networks: TextToMotionNetworks, workdir) -> dict:
         sequences = tokenize_clips(tokenizer, dataset.normalized("train"))
-        history = train_text_to_motion(networks, sequences, captions, transitions, config, workdir=workdir,
-                                       device=device, progress=progress)  # fmt: skip
+        history = train_text_to_motion(
+            networks, sequences, captions, transitions, config, workdir=workdir, device=device, progress=progress
+        )
         n_tokens = int(sum(s.numel() for s in sequences))
         return {"history": history, "n_clips": len(sequences), "n_tokens": n_tokens}
 
-    networks = train_or_load(MODEL_NAME, config, build, train_fn, profile, extra=extra, device=device,
-                             retrain=retrain)  # fmt: skip
+    networks = train_or_load(MODEL_NAME, config, build, train_fn, profile, extra=extra, device=device, retrain=retrain)
     history = load_result(MODEL_NAME, config, profile, extra, device).get("history", [])
     transitions.to(next(networks.parameters()).device)
-    return TextToMotion(tokenizer, networks.text_encoder, networks.denoiser, transitions, dataset.normalizer,
-                        config.transformer, history)  # fmt: skip
+    return TextToMotion(
+        tokenizer,
+        networks.text_encoder,
+        networks.denoiser,
+        transitions,
+        dataset.normalizer,
+        config.transformer,
+        history,
+    )
 
 
 # ------------------------------------------------------------------------------------------ evaluation
@@ -346,8 +360,9 @@ def evaluate_text_to_motion(
     return runs
 
 
-def evaluate_fixed_motions(evaluator, clips, motions: Sequence[np.ndarray], *, repeats: int = 1,
-                           seed: int = 0) -> list[dict[str, float]]:  # fmt: skip
+def evaluate_fixed_motions(
+    evaluator, clips, motions: Sequence[np.ndarray], *, repeats: int = 1, seed: int = 0
+) -> list[dict[str, float]]:
     """The same protocol for motions that do not depend on the caption (``motions[i]`` stands for clip i):
     the real motions ("Ground Truth") or their VQ-VAE reconstructions. Only the caption draws repeat."""
     _check_eval_args(clips, repeats, seed)

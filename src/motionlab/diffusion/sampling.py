@@ -138,8 +138,7 @@ def _model_log_p_x0(
     log_c = log_u = None
     for rows in groups:
         reach = int(extent[rows].max())
-        part_c, part_u = _network_log_p_x0(model, x_t[rows, :reach], t, text[rows], guided,
-                                           **_rows(kw, rows, reach))  # fmt: skip
+        part_c, part_u = _network_log_p_x0(model, x_t[rows, :reach], t, text[rows], guided, **_rows(kw, rows, reach))
         if log_c is None:  # uniform where the network did not run
             uniform = -math.log(part_c.shape[-1])
             log_c = part_c.new_full((B, L, part_c.shape[-1]), uniform)
@@ -177,8 +176,9 @@ def denoise_step(
         raise ValueError(f"need 0 <= t_prev < t <= T={transitions.T}, got t={t}, t_prev={t_prev}")
     if guidance_on not in GUIDANCE_SPACES:
         raise ValueError(f"guidance_on must be one of {GUIDANCE_SPACES}, got {guidance_on!r}")
-    kw = dict(text_padding_mask=text_padding_mask, padding_mask=padding_mask, cross_mask=cross_mask,
-              self_mask=self_mask)  # fmt: skip
+    kw = dict(
+        text_padding_mask=text_padding_mask, padding_mask=padding_mask, cross_mask=cross_mask, self_mask=self_mask
+    )
     guided = guidance_scale != 0.0
     log_c, log_u = _model_log_p_x0(model, x_t, t, text, guided, **kw)
     if guided and guidance_on == "x0":
@@ -236,7 +236,19 @@ def sample(
     x = torch.full((B, L), transitions.mask_id, dtype=torch.long, device=dev)
     with network_autocast(dev):  # posteriors stay fp32 (in_fp32); the network's weights are cast once
         for t, t_prev in zip(grid[:-1], grid[1:], strict=True):
-            x = denoise_step(model, transitions, x, t, t_prev, text, text_padding_mask, generator=generator,
-                             guidance_scale=guidance_scale, guidance_on=guidance_on, top_p=top_p, top_k=top_k,
-                             padding_mask=padding_mask)  # fmt: skip
+            x = denoise_step(
+                model,
+                transitions,
+                x,
+                t,
+                t_prev,
+                text,
+                text_padding_mask,
+                generator=generator,
+                guidance_scale=guidance_scale,
+                guidance_on=guidance_on,
+                top_p=top_p,
+                top_k=top_k,
+                padding_mask=padding_mask,
+            )
     return x.masked_fill(padding_mask, pad_id)

@@ -120,9 +120,11 @@ def vqdiffusion_paper_schedule(T: int = DEFAULT_T, gamma_bar_T: float = 0.9, kbe
         raise ValueError(f"T must be a positive int, got {T!r}")
     u = torch.arange(1, T + 1, dtype=torch.float64) / T
     return linear_schedule(
-        T, (1.0 - u[0].item() * (gamma_bar_T + kbeta_bar_T), 1.0 - gamma_bar_T - kbeta_bar_T),
-        (u[0].item() * gamma_bar_T, gamma_bar_T), name="vqdiffusion_paper",
-    )  # fmt: skip
+        T,
+        (1.0 - u[0].item() * (gamma_bar_T + kbeta_bar_T), 1.0 - gamma_bar_T - kbeta_bar_T),
+        (u[0].item() * gamma_bar_T, gamma_bar_T),
+        name="vqdiffusion_paper",
+    )
 
 
 SCHEDULES: dict[str, Callable[[int], Schedule]] = {

@@ -67,9 +67,7 @@ class DiffusionTrainingConfig:
     def __post_init__(self) -> None:
         t = self.transformer
         if t.text_dim != self.text.dim:
-            raise ValueError(
-                f"transformer.text_dim={t.text_dim} must equal the text encoder's dim={self.text.dim}"
-            )
+            raise ValueError(f"transformer.text_dim={t.text_dim} must equal the text encoder's dim={self.text.dim}")
         if self.max_tokens < 1:
             raise ValueError(f"max_tokens must be >= 1, got {self.max_tokens}")
         if t.schedule not in SCHEDULES:
@@ -84,12 +82,32 @@ class DiffusionTrainingConfig:
 # such models in the book, see motionlab.book_models). The learning rates are larger than the paper's 2e-4: these
 # runs are hundreds of steps, not 110 epochs.
 _TRANSFORMER = {
-    "smoke": dict(n_layers=2, n_heads=2, d_model=32, d_ff=64, rel_buckets=16, rel_max_distance=32,
-                  batch_size=16, train_steps=150, lr=2e-3, lr_decayed=2e-4),
-    "laptop": dict(n_layers=3, n_heads=4, d_model=128, d_ff=256, rel_buckets=32, rel_max_distance=64,
-                   batch_size=32, train_steps=800, lr=1e-3, lr_decayed=1e-4),
+    "smoke": dict(
+        n_layers=2,
+        n_heads=2,
+        d_model=32,
+        d_ff=64,
+        rel_buckets=16,
+        rel_max_distance=32,
+        batch_size=16,
+        train_steps=150,
+        lr=2e-3,
+        lr_decayed=2e-4,
+    ),
+    "laptop": dict(
+        n_layers=3,
+        n_heads=4,
+        d_model=128,
+        d_ff=256,
+        rel_buckets=32,
+        rel_max_distance=64,
+        batch_size=32,
+        train_steps=800,
+        lr=1e-3,
+        lr_decayed=1e-4,
+    ),
     "full": dict(),
-}  # fmt: skip
+}
 _TEXT = {
     "smoke": WordEncoderConfig(dim=32, n_layers=1, n_heads=2),
     "laptop": WordEncoderConfig(dim=128, n_layers=1, n_heads=4),
@@ -132,8 +150,15 @@ def diffusion_training_config(
     if float(eta) == 0.0:
         distance = DISTANCES[0]
     text = _TEXT[profile]
-    settings = {**_TRANSFORMER[profile], "num_codes": num_codes, "text_dim": text.dim, "eta": float(eta),
-                "distance": distance, "schedule": schedule, **transformer_overrides}  # fmt: skip
+    settings = {
+        **_TRANSFORMER[profile],
+        "num_codes": num_codes,
+        "text_dim": text.dim,
+        "eta": float(eta),
+        "distance": distance,
+        "schedule": schedule,
+        **transformer_overrides,
+    }
     return DiffusionTrainingConfig(transformer_config(profile, **settings), text, **_TRAINING[profile])
 
 
@@ -154,8 +179,9 @@ class TextToMotionNetworks(nn.Module):
     def __init__(self, config: DiffusionTrainingConfig, vocabulary: Vocabulary) -> None:
         super().__init__()
         t = config.text
-        self.text_encoder = WordTextEncoder(vocabulary, dim=t.dim, n_layers=t.n_layers, n_heads=t.n_heads,
-                                            max_len=t.max_len, seed=config.seed)  # fmt: skip
+        self.text_encoder = WordTextEncoder(
+            vocabulary, dim=t.dim, n_layers=t.n_layers, n_heads=t.n_heads, max_len=t.max_len, seed=config.seed
+        )
         self.denoiser = DenoisingTransformer(config.transformer, seed=config.seed)
 
     # The word encoder keeps its vocabulary as "extra state" (a dict of strings), which the safetensors
@@ -195,9 +221,7 @@ def make_transitions(config: TransformerConfig, codebook: Tensor | None = None) 
 
 
 @torch.no_grad()
-def tokenize_clips(
-    tokenizer, clips: Sequence[np.ndarray], unit: int = 4, batch_size: int = 64
-) -> list[Tensor]:
+def tokenize_clips(tokenizer, clips: Sequence[np.ndarray], unit: int = 4, batch_size: int = 64) -> list[Tensor]:
     """Normalised clips ``(T_i, D)`` → token sequences ``(floor(T_i / 4),)`` (long, CPU), in order.
 
     Each clip is cropped to a multiple of ``unit`` frames; clips of equal length are encoded together (no
@@ -234,12 +258,11 @@ class TokenBatches:
     of ``min(len, max_tokens)`` tokens at a uniform start. Padding holds code 0 (never read: it is masked).
     """
 
-    def __init__(self, sequences: Sequence[Tensor], captions: Sequence[Sequence[str]], batch_size: int,
-                 max_tokens: int) -> None:  # fmt: skip
+    def __init__(
+        self, sequences: Sequence[Tensor], captions: Sequence[Sequence[str]], batch_size: int, max_tokens: int
+    ) -> None:
         if len(sequences) == 0 or len(sequences) != len(captions):
-            raise ValueError(
-                f"need as many caption lists as sequences (> 0), got {len(sequences)} and {len(captions)}"
-            )
+            raise ValueError(f"need as many caption lists as sequences (> 0), got {len(sequences)} and {len(captions)}")
         if any(len(c) == 0 for c in captions):
             raise ValueError("every clip needs at least one caption")
         if any(s.ndim != 1 or s.numel() == 0 for s in sequences):
@@ -281,9 +304,17 @@ def diffusion_loss_fn(transitions: Transitions, texts: Sequence[str], config: Di
     def loss_fn(model: TextToMotionNetworks, batch: dict[str, Tensor], generator: torch.Generator) -> dict:
         captions = [texts[i] for i in batch["caption"].tolist()]
         text = model.text_encoder.encode(captions)  # tokens (B, S, text_dim), padding_mask (B, S)
-        out = diffusion_loss(model.denoiser, transitions, batch["ids"], text.tokens, text.padding_mask,
-                             batch["padding_mask"], generator=generator, aux_weight=t.aux_weight,
-                             cond_drop_prob=t.cond_drop_prob)  # fmt: skip
+        out = diffusion_loss(
+            model.denoiser,
+            transitions,
+            batch["ids"],
+            text.tokens,
+            text.padding_mask,
+            batch["padding_mask"],
+            generator=generator,
+            aux_weight=t.aux_weight,
+            cond_drop_prob=t.cond_drop_prob,
+        )
         return {"loss": out.loss, "vb": out.vb, "aux": out.aux}
 
     return loss_fn
@@ -298,10 +329,20 @@ def optimisation(config: DiffusionTrainingConfig, n_clips: int) -> TrainConfig:
         steps = t.epochs * max(1, math.ceil(n_clips / t.batch_size))
     decay_at = max(1, round(steps * t.decay_epoch / t.epochs))
     milestones = (decay_at,) if decay_at < steps else ()
-    return TrainConfig(steps=steps, lr=t.lr, betas=t.betas, weight_decay=t.weight_decay, schedule="multistep",
-                       warmup_steps=min(config.warmup_steps, steps - 1), milestones=milestones,
-                       gamma=t.lr_decayed / t.lr, grad_clip=config.grad_clip, seed=config.seed,
-                       log_every=config.log_every, ckpt_every=max(0, steps // 4))  # fmt: skip
+    return TrainConfig(
+        steps=steps,
+        lr=t.lr,
+        betas=t.betas,
+        weight_decay=t.weight_decay,
+        schedule="multistep",
+        warmup_steps=min(config.warmup_steps, steps - 1),
+        milestones=milestones,
+        gamma=t.lr_decayed / t.lr,
+        grad_clip=config.grad_clip,
+        seed=config.seed,
+        log_every=config.log_every,
+        ckpt_every=max(0, steps // 4),
+    )
 
 
 def text_to_motion_trainer(
@@ -328,9 +369,17 @@ def text_to_motion_trainer(
         raise ValueError(f"token sequences must hold code ids in [0, {K})")
     batches = TokenBatches(sequences, captions, config.transformer.batch_size, config.max_tokens)
     train = optimisation(config, len(sequences))
-    trainer = Trainer(networks, diffusion_loss_fn(transitions, batches.texts, config), batches, train,
-                      workdir=workdir, device=device, desc="text-to-motion", progress=progress,
-                      precision=precision)  # fmt: skip
+    trainer = Trainer(
+        networks,
+        diffusion_loss_fn(transitions, batches.texts, config),
+        batches,
+        train,
+        workdir=workdir,
+        device=device,
+        desc="text-to-motion",
+        progress=progress,
+        precision=precision,
+    )
     transitions.to(trainer.device)
     return trainer
 
@@ -351,8 +400,9 @@ def train_text_to_motion(
     Returns the logged history (``loss``, ``vb``, ``aux`` averaged over ``log_every`` steps). Resumes from
     ``workdir``'s latest checkpoint when there is one.
     """
-    trainer = text_to_motion_trainer(networks, sequences, captions, transitions, config, workdir=workdir,
-                                     device=device, progress=progress)  # fmt: skip
+    trainer = text_to_motion_trainer(
+        networks, sequences, captions, transitions, config, workdir=workdir, device=device, progress=progress
+    )
     history = trainer.fit()
     networks.eval()
     return history

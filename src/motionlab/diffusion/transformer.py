@@ -77,11 +77,12 @@ class TransformerConfig:
 
 
 _PROFILES = {
-    "smoke": dict(n_layers=2, n_heads=2, d_model=32, d_ff=64, rel_buckets=16, rel_max_distance=32,
-                  batch_size=16, train_steps=200),
+    "smoke": dict(
+        n_layers=2, n_heads=2, d_model=32, d_ff=64, rel_buckets=16, rel_max_distance=32, batch_size=16, train_steps=200
+    ),
     "laptop": dict(n_layers=4, n_heads=8, d_model=256, d_ff=1024, batch_size=64, train_steps=4000),
     "full": dict(),  # the paper: 12 layers, 16 heads, 512 dims, 2048 hidden
-}  # fmt: skip
+}
 
 
 def transformer_config(profile: str | None = None, **overrides) -> TransformerConfig:
@@ -102,9 +103,7 @@ def relative_position_bucket(offset: Tensor, num_buckets: int, max_distance: int
     bucket = (offset > 0).long() * half
     n = offset.abs()
     exact = half // 2
-    far = exact + (
-        torch.log(n.clamp_min(1).float() / exact) / math.log(max_distance / exact) * (half - exact)
-    ).long()
+    far = exact + (torch.log(n.clamp_min(1).float() / exact) / math.log(max_distance / exact) * (half - exact)).long()
     far = far.clamp(max=half - 1)
     return bucket + torch.where(n < exact, n, far)
 
@@ -148,8 +147,9 @@ class Attention(nn.Module):
         q = self.q(x).view(B, L, H, d // H).transpose(1, 2)  # (B, H, L, dh)
         k, v = self.kv(source).view(B, source.shape[1], 2, H, d // H).permute(2, 0, 3, 1, 4)  # (B, H, S, dh)
         with attention_kernel(x.device):
-            y = F.scaled_dot_product_attention(q, k, v, attn_mask=bias,
-                                               dropout_p=self.dropout if self.training else 0.0)  # fmt: skip
+            y = F.scaled_dot_product_attention(
+                q, k, v, attn_mask=bias, dropout_p=self.dropout if self.training else 0.0
+            )
         return self.out(y.transpose(1, 2).reshape(B, L, d))
 
 
@@ -297,9 +297,13 @@ class DenoisingTransformer(nn.Module):
         if not torch.is_tensor(text) or text.ndim != 3 or text.shape[0] != B or text.shape[2] != self.cfg.text_dim:
             raise ValueError(f"text must be (B={B}, S, {self.cfg.text_dim}), got {getattr(text, 'shape', None)}")
         S = text.shape[1]
-        for name, m, shape in (("text_padding_mask", text_padding_mask, (B, S)), ("padding_mask", padding_mask, (B, L)),
-                               ("cross_mask", cross_mask, (B, L, S)), ("self_mask", self_mask, (B, L, L)),
-                               ("drop_text", drop_text, (B,))):  # fmt: skip
+        for name, m, shape in (
+            ("text_padding_mask", text_padding_mask, (B, S)),
+            ("padding_mask", padding_mask, (B, L)),
+            ("cross_mask", cross_mask, (B, L, S)),
+            ("self_mask", self_mask, (B, L, L)),
+            ("drop_text", drop_text, (B,)),
+        ):
             if m is not None and tuple(m.shape) != shape:
                 raise ValueError(f"{name} must be {shape}, got {tuple(m.shape)}")
         return B, L, S

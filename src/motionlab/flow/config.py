@@ -93,8 +93,13 @@ class DisCoRDConfig:
     def __post_init__(self) -> None:
         if self.projection not in CONDITION_PROJECTIONS:
             raise ValueError(f"projection must be one of {CONDITION_PROJECTIONS}, got {self.projection!r}")
-        for name, choices in (("solver", SOLVERS), ("prediction", PREDICTIONS), ("normalization", NORMALIZATIONS),
-                              ("time_distribution", TIME_DISTRIBUTIONS), ("spacing", GRIDS)):  # fmt: skip
+        for name, choices in (
+            ("solver", SOLVERS),
+            ("prediction", PREDICTIONS),
+            ("normalization", NORMALIZATIONS),
+            ("time_distribution", TIME_DISTRIBUTIONS),
+            ("spacing", GRIDS),
+        ):
             if getattr(self, name) not in choices:
                 raise ValueError(f"{name} must be one of {choices}, got {getattr(self, name)!r}")
         check_temperature(self.temperature)
@@ -147,9 +152,19 @@ class DisCoRDConfig:
 _PROFILES: dict[str, DisCoRDConfig] = {
     # Tiny: seconds of CPU training; numbers only show that the code runs. Code width = the smoke tokenizer's.
     "smoke": DisCoRDConfig(
-        code_dim=16, cond_dim=16, width=16, sample_steps=4, solver="euler",
-        window=16, batch_size=16, lr=1e-3, min_lr=1e-4, train_steps=60, warmup_steps=5, ema_decay=0.9,
-    ),  # fmt: skip
+        code_dim=16,
+        cond_dim=16,
+        width=16,
+        sample_steps=4,
+        solver="euler",
+        window=16,
+        batch_size=16,
+        lr=1e-3,
+        min_lr=1e-4,
+        train_steps=60,
+        warmup_steps=5,
+        ema_decay=0.9,
+    ),
     # Chosen by measurement (chapter 05, experiments/discord_sweep.py): under 10 minutes of fp32 training on one core
     # of a 2-core machine (data v2), the paper's velocity U-Net at width 272 got ~420 steps and stayed rough; an
     # x-predicting U-Net of width 128 (no noise floor below the 263 features) got ~1,300 steps and the lowest
@@ -161,10 +176,23 @@ _PROFILES: dict[str, DisCoRDConfig] = {
     # steps (book_models.ABLATION_STEPS).
     # Code width = the laptop tokenizer's.
     "laptop": DisCoRDConfig(
-        code_dim=64, cond_dim=64, width=128, width_mults=(1, 1), sample_steps=8, solver="midpoint",
-        prediction="x", normalization="std", temperature=0.0,
-        window=64, batch_size=32, lr=3e-3, min_lr=1e-5, train_steps=4000, warmup_steps=200, ema_decay=0.995,
-    ),  # fmt: skip
+        code_dim=64,
+        cond_dim=64,
+        width=128,
+        width_mults=(1, 1),
+        sample_steps=8,
+        solver="midpoint",
+        prediction="x",
+        normalization="std",
+        temperature=0.0,
+        window=64,
+        batch_size=32,
+        lr=3e-3,
+        min_lr=1e-5,
+        train_steps=4000,
+        warmup_steps=200,
+        ema_decay=0.995,
+    ),
     # The paper (Table A) and the public code.
     "full": DisCoRDConfig(),
 }

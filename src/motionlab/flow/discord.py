@@ -101,8 +101,10 @@ class DisCoRDDecoder(nn.Module):
     def set_extra_state(self, state: Any) -> None:
         saved = bytes(torch.as_tensor(state, dtype=torch.uint8).tolist()).decode()
         if saved != self._interpretation():
-            raise ValueError(f"these DisCoRD weights were trained with {saved!r} but the decoder is configured "
-                             f"with {self._interpretation()!r}: load them with the config they were trained with")
+            raise ValueError(
+                f"these DisCoRD weights were trained with {saved!r} but the decoder is configured "
+                f"with {self._interpretation()!r}: load them with the config they were trained with"
+            )
 
     def _interpretation(self) -> str:
         return f"prediction={self.config.prediction};normalization={self.config.normalization}"
@@ -143,9 +145,16 @@ class DisCoRDDecoder(nn.Module):
         self._check_pair(motion, code_vectors, "motion")
         cfg = self.config
         cond = self.condition(code_vectors)  # (B, T, c)
-        return flow_matching_loss(self.unet, self.to_model_space(motion), cond, generator,
-                                  prediction=cfg.prediction, time_distribution=cfg.time_distribution,
-                                  time_loc=cfg.time_loc, time_scale=cfg.time_scale)  # fmt: skip
+        return flow_matching_loss(
+            self.unet,
+            self.to_model_space(motion),
+            cond,
+            generator,
+            prediction=cfg.prediction,
+            time_distribution=cfg.time_distribution,
+            time_loc=cfg.time_loc,
+            time_scale=cfg.time_scale,
+        )
 
     # ------------------------------------------------------------------ sampling
 
@@ -218,8 +227,9 @@ class DisCoRDDecoder(nn.Module):
         expected = (ids.shape[0], ids.shape[1], self.config.code_dim)
         if not isinstance(code_vectors, Tensor) or tuple(code_vectors.shape) != expected:
             raise ValueError(f"tokenizer.embed returned {_shape(code_vectors)}, expected {expected}")
-        return self.sample(code_vectors, steps=steps, solver=solver, generator=generator, seed=seed,
-                           temperature=temperature)
+        return self.sample(
+            code_vectors, steps=steps, solver=solver, generator=generator, seed=seed, temperature=temperature
+        )
 
     # ------------------------------------------------------------------ checks
 
@@ -232,8 +242,9 @@ class DisCoRDDecoder(nn.Module):
             raise ValueError(f"{name} length T={T} must be a multiple of q={cfg.q} (whole tokens)")
         expected = (B, T // cfg.q, cfg.code_dim)
         if not isinstance(code_vectors, Tensor) or tuple(code_vectors.shape) != expected:
-            raise ValueError(f"code_vectors must have shape {expected} for {name} {tuple(x.shape)}, "
-                             f"got {_shape(code_vectors)}")
+            raise ValueError(
+                f"code_vectors must have shape {expected} for {name} {tuple(x.shape)}, got {_shape(code_vectors)}"
+            )
 
 
 def feature_scale(config: DisCoRDConfig) -> Tensor:

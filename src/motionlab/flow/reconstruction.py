@@ -152,8 +152,17 @@ def reconstruction_scores(
         reference = gt_embeddings if gt_embeddings is not None else embed(list(gt_features))
         distance = fid(reference, embed(list(pred_features)))
     mean_jerk = float(np.mean(jerk.jerk_pred_per_clip))
-    return ReconstructionScores(distance, to_mm * mpjpe(pred_joints, gt_joints), jerk.sjpe,
-                                jerk.noise, jerk.static, ratio.sjpe, ratio.noise, ratio.static, mean_jerk)  # fmt: skip
+    return ReconstructionScores(
+        distance,
+        to_mm * mpjpe(pred_joints, gt_joints),
+        jerk.sjpe,
+        jerk.noise,
+        jerk.static,
+        ratio.sjpe,
+        ratio.noise,
+        ratio.static,
+        mean_jerk,
+    )
 
 
 # ----------------------------------------------------------------------------- timing

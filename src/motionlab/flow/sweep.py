@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from motionlab.metrics.protocol import Estimate
+from motionlab.estimate import Estimate
 
 
 def load_sweep(folder: str | Path) -> dict[str, dict[str, Any]]:
@@ -34,13 +34,17 @@ def estimate(result: dict[str, Any], sampling: str, metric: str, checkpoint: int
     return Estimate.from_values([run[metric] for run in runs])
 
 
-def best_setting(sweep: dict[str, dict[str, Any]], metric: str = "sjpe", max_budget: float | None = None
-                 ) -> tuple[str, str]:  # fmt: skip
+def best_setting(
+    sweep: dict[str, dict[str, Any]], metric: str = "sjpe", max_budget: float | None = None
+) -> tuple[str, str]:
     """The (variant, sampling) whose last checkpoint has the lowest mean ``metric``, among the variants trained
     with a budget of at most ``max_budget`` seconds (all if ``None``)."""
-    candidates = [(estimate(r, s, metric).mean, v, s) for v, r in sweep.items()
-                  if max_budget is None or r["budget_s"] <= max_budget
-                  for s in r["checkpoints"][-1]["samplings"]]  # fmt: skip
+    candidates = [
+        (estimate(r, s, metric).mean, v, s)
+        for v, r in sweep.items()
+        if max_budget is None or r["budget_s"] <= max_budget
+        for s in r["checkpoints"][-1]["samplings"]
+    ]
     if not candidates:
         raise ValueError(f"no variant was trained within a budget of {max_budget} s")
     _, variant, sampling = min(candidates)
@@ -83,9 +87,11 @@ def budget_curve(result: dict[str, Any], sampling: str, metric: str = "sjpe") ->
     return np.array(seconds), np.array(values)
 
 
-def sweep_rows(sweep: dict[str, dict[str, Any]], samplings: Sequence[str] | None = None,
-               metrics: Sequence[str] = ("sjpe", "noise_sjpe", "static_sjpe", "fid", "joint_jerk")
-               ) -> list[dict[str, Any]]:  # fmt: skip
+def sweep_rows(
+    sweep: dict[str, dict[str, Any]],
+    samplings: Sequence[str] | None = None,
+    metrics: Sequence[str] = ("sjpe", "noise_sjpe", "static_sjpe", "fid", "joint_jerk"),
+) -> list[dict[str, Any]]:
     """One row per (variant, sampling) at the last checkpoint: steps, seconds, seed spread, metric estimates."""
     rows = []
     for variant, result in sweep.items():
@@ -93,8 +99,13 @@ def sweep_rows(sweep: dict[str, dict[str, Any]], samplings: Sequence[str] | None
         for sampling, scored in last["samplings"].items():
             if samplings is not None and sampling not in samplings:
                 continue
-            row = {"variant": variant, "sampling": sampling, "steps": last["step"],
-                   "train_seconds": last["train_seconds"], "seed_rms": scored.get("seed_rms", float("nan"))}
+            row = {
+                "variant": variant,
+                "sampling": sampling,
+                "steps": last["step"],
+                "train_seconds": last["train_seconds"],
+                "seed_rms": scored.get("seed_rms", float("nan")),
+            }
             row.update({m: estimate(result, sampling, m) for m in metrics})
             rows.append(row)
     return rows

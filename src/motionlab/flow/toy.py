@@ -94,8 +94,15 @@ class ToyFlowConfig:
         return TOY_DISTRIBUTIONS[self.distribution]
 
     def train_config(self) -> TrainConfig:
-        return TrainConfig(steps=self.steps, lr=self.lr, schedule="cosine", warmup_steps=self.warmup_steps,
-                           min_lr_ratio=0.05, seed=self.seed, log_every=max(1, self.steps // 50))  # fmt: skip
+        return TrainConfig(
+            steps=self.steps,
+            lr=self.lr,
+            schedule="cosine",
+            warmup_steps=self.warmup_steps,
+            min_lr_ratio=0.05,
+            seed=self.seed,
+            log_every=max(1, self.steps // 50),
+        )
 
 
 _PROFILE_STEPS = {"smoke": 300, "laptop": 5000, "full": 20_000}
@@ -159,8 +166,15 @@ def train_toy_flow(
     def batch_fn(step: int, generator: torch.Generator) -> tuple[Tensor, Tensor]:
         return sample_toy(cfg.distribution, cfg.batch_size, generator)
 
-    trainer = Trainer(model, toy_flow_loss_fn, batch_fn, cfg.train_config(), workdir=workdir,
-                      desc=f"toy flow ({cfg.distribution})", progress=progress)  # fmt: skip
+    trainer = Trainer(
+        model,
+        toy_flow_loss_fn,
+        batch_fn,
+        cfg.train_config(),
+        workdir=workdir,
+        desc=f"toy flow ({cfg.distribution})",
+        progress=progress,
+    )
     with _one_torch_thread():
         history = trainer.fit()
     model.eval()
@@ -194,9 +208,7 @@ _STEPPERS = {"euler": euler_step, "midpoint": midpoint_step}
 
 
 @torch.no_grad()
-def flow_trajectory(
-    velocity_fn: VelocityFn, x0: Tensor, steps: int, solver: str = "euler", cond: Any = None
-) -> Tensor:
+def flow_trajectory(velocity_fn: VelocityFn, x0: Tensor, steps: int, solver: str = "euler", cond: Any = None) -> Tensor:
     """The states of :func:`~motionlab.flow.sample` at every grid point: ``(steps + 1, B, ...)``.
 
     Same grid and steppers as ``sample``, so ``flow_trajectory(...)[-1]`` equals ``sample(...)``.

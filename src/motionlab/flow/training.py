@@ -134,11 +134,23 @@ def discord_trainer(
     if windows.feature_dim != cfg.feature_dim:
         raise ValueError(f"train_clips have {windows.feature_dim} features, the config expects {cfg.feature_dim}")
     val_fn = flow_validation(tokenizer, val_clips, cfg.window, seed=cfg.seed) if val_clips is not None else None
-    train = cfg.train_config(seed=cfg.seed, log_every=max(1, cfg.train_steps // 100),
-                             val_every=max(1, cfg.train_steps // 10) if val_fn else 0)  # fmt: skip
-    return Trainer(model, discord_loss_fn, token_window_batches(windows, tokenizer, cfg.batch_size), train,
-                   val_fn=val_fn, workdir=workdir, device=device, desc="DisCoRD", progress=progress,
-                   precision=precision)  # fmt: skip
+    train = cfg.train_config(
+        seed=cfg.seed,
+        log_every=max(1, cfg.train_steps // 100),
+        val_every=max(1, cfg.train_steps // 10) if val_fn else 0,
+    )
+    return Trainer(
+        model,
+        discord_loss_fn,
+        token_window_batches(windows, tokenizer, cfg.batch_size),
+        train,
+        val_fn=val_fn,
+        workdir=workdir,
+        device=device,
+        desc="DisCoRD",
+        progress=progress,
+        precision=precision,
+    )
 
 
 def train_discord(
@@ -157,8 +169,9 @@ def train_discord(
     ``lr``, ``grad_norm``, and ``val_loss`` on ``val_clips`` windows if given), wall-clock and CPU time
     (summed over this process's threads) of the run.
     """
-    trainer = discord_trainer(model, tokenizer, train_clips, val_clips, workdir=workdir, device=device,
-                              progress=progress)  # fmt: skip
+    trainer = discord_trainer(
+        model, tokenizer, train_clips, val_clips, workdir=workdir, device=device, progress=progress
+    )
     wall, cpu = time.perf_counter(), time.process_time()
     history = trainer.fit()
     seconds, cpu_seconds = time.perf_counter() - wall, time.process_time() - cpu
@@ -207,8 +220,15 @@ def train_or_load_discord(
     config, extra = _cache_args(dataset, tokenizer, profile, config)
 
     def train_fn(model: DisCoRDDecoder, workdir: Path) -> dict[str, Any]:
-        return train_discord(model, tokenizer, dataset.normalized("train"), dataset.normalized("val"),
-                             workdir=workdir, device=device, progress=progress)  # fmt: skip
+        return train_discord(
+            model,
+            tokenizer,
+            dataset.normalized("train"),
+            dataset.normalized("val"),
+            workdir=workdir,
+            device=device,
+            progress=progress,
+        )
 
     model = train_or_load(MODEL_NAME, config, DisCoRDDecoder, train_fn, profile, extra=extra, device=device)
     return model.attach(tokenizer)

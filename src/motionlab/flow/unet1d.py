@@ -46,7 +46,7 @@ class UNetConfig:
             raise ValueError(f"UNetConfig.width_mults must be positive ints, got {self.width_mults!r}")
         if self.width % 2:
             raise ValueError(f"UNetConfig.width must be even (sinusoidal embedding), got {self.width}")
-        if self.length_multiple % (2 ** self.n_downsamplings):
+        if self.length_multiple % (2**self.n_downsamplings):
             raise ValueError(
                 f"UNetConfig.length_multiple={self.length_multiple} must be a multiple of "
                 f"2^{self.n_downsamplings} (one halving per level but the last)"

@@ -183,9 +183,11 @@ def save_bvh(motion, path: str | os.PathLike, fps: float = 20.0, unit: str = "m"
     stretch, bone, lo, hi = bone_stretch(joints, sk)
     if stretch > STRETCH_WARNING:
         gap = rigid_deviation(bvh, joints, unit)
-        warn(f"{path.name}: the motion's bones stretch ({bone} {lo:.2f}-{hi:.2f} m); the BVH keeps fixed bone "
-             f"lengths, so its joints are up to {100 * gap:.0f} cm from the motion's (.npy/.html hold the motion "
-             "as generated)")  # fmt: skip
+        warn(
+            f"{path.name}: the motion's bones stretch ({bone} {lo:.2f}-{hi:.2f} m); the BVH keeps fixed bone "
+            f"lengths, so its joints are up to {100 * gap:.0f} cm from the motion's (.npy/.html hold the motion "
+            "as generated)"
+        )
     return write_bvh(bvh, path)
 
 

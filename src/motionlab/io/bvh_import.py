@@ -56,12 +56,31 @@ CMU_TO_T2M: dict[str, str] = dict(
     zip(
         T2M.joint_names,
         (
-            "Hips", "LeftHip", "RightHip", "lowerback", "LeftKnee", "RightKnee", "Chest", "LeftAnkle",
-            "RightAnkle", "Chest2", "LeftToe", "RightToe", "Neck", "LeftCollar", "RightCollar", "Head",
-            "LeftShoulder", "RightShoulder", "LeftElbow", "RightElbow", "LeftWrist", "RightWrist",
+            "Hips",
+            "LeftHip",
+            "RightHip",
+            "lowerback",
+            "LeftKnee",
+            "RightKnee",
+            "Chest",
+            "LeftAnkle",
+            "RightAnkle",
+            "Chest2",
+            "LeftToe",
+            "RightToe",
+            "Neck",
+            "LeftCollar",
+            "RightCollar",
+            "Head",
+            "LeftShoulder",
+            "RightShoulder",
+            "LeftElbow",
+            "RightElbow",
+            "LeftWrist",
+            "RightWrist",
         ),
     )
-)  # fmt: skip
+)
 
 
 @dataclass(frozen=True)
@@ -185,8 +204,10 @@ def _check_floor(joints_file_axes: np.ndarray, up: str, source: str) -> None:
     hint = ""
     if uprightness(joints_file_axes @ _Y_UP[other].T) >= UPRIGHT:
         hint = f"; with up={other!r} it stands upright (--up {other})"
-    warn(f"{source}: with up={up!r} the head is not above the feet in most frames (the body lies flat or "
-         f"upside down){hint}")  # fmt: skip
+    warn(
+        f"{source}: with up={up!r} the head is not above the feet in most frames (the body lies flat or "
+        f"upside down){hint}"
+    )
 
 
 def resolve_rig(mapping: str | Mapping[str, str] = "cmu", scale: float | None = None, up: str | None = None) -> BvhRig:

@@ -55,9 +55,11 @@ def checked_features(joints: np.ndarray, skeleton: Skeleton, name: str = "motion
     bad = ~np.isfinite(features).all(axis=-1)
     if bad.any():
         frame = int(np.argmax(bad))
-        raise ValueError(f"{name}: its features are NaN from frame {frame} on ({int(bad.sum())} of {len(bad)} "
-                         "frames): joints coincide (e.g. both hips or both shoulders on one point), so the body "
-                         "has no facing direction")  # fmt: skip
+        raise ValueError(
+            f"{name}: its features are NaN from frame {frame} on ({int(bad.sum())} of {len(bad)} "
+            "frames): joints coincide (e.g. both hips or both shoulders on one point), so the body "
+            "has no facing direction"
+        )
     return features
 
 

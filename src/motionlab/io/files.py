@@ -96,8 +96,10 @@ def load_joints(
     if array.ndim == 3:  # joints as given: place joints that sit on their parent, as the BVH import does
         joints, moved = fill_degenerate_joints(joints, sk)
         if moved:
-            warn(f"{path.name}: {', '.join(moved)} coincide with their parent joint in every frame; placed them "
-                 "halfway to the next joint of their chain")  # fmt: skip
+            warn(
+                f"{path.name}: {', '.join(moved)} coincide with their parent joint in every frame; placed them "
+                "halfway to the next joint of their chain"
+            )
     return joints
 
 

@@ -157,8 +157,14 @@ def html_animation(joints, title: str = "motion", fps: float = 20.0, skeleton: s
         raise ValueError(f"fps must be positive, got {fps}")
     metres = np.round(positions * sk.meters_per_unit, 4)  # (T, J, 3)
     bones, colors = _bones_and_colors(sk)
-    payload = {"skeleton": sk.name, "fps": float(fps), "joint_names": list(sk.joint_names), "bones": bones,
-               "colors": colors, "joints": metres.tolist()}  # fmt: skip
+    payload = {
+        "skeleton": sk.name,
+        "fps": float(fps),
+        "joint_names": list(sk.joint_names),
+        "bones": bones,
+        "colors": colors,
+        "joints": metres.tolist(),
+    }
     # "<" never appears raw inside the <script> element, so no data can close it early.
     data = json.dumps(payload, separators=(",", ":")).replace("<", "\\u003c")
     # Data first, so a title that happens to contain "__DATA__" stays text.

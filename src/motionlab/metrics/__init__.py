@@ -2,6 +2,8 @@
 MultiModality; R-precision and MM-Dist; the text-motion evaluator that embeds texts and motions; and the
 mean +- 95% CI reporting protocol."""
 
+from motionlab.estimate import Estimate, mean_ci, summarize_runs
+
 from .distribution import diversity, fid, frechet_distance, gaussian_stats, multimodality
 from .evaluator import (
     OFFICIAL_PARTS,
@@ -29,7 +31,6 @@ from .jerk import (
 from .joints import ClipJoints
 from .mpjpe import mpjpe
 from .official import OfficialEvaluator, load_official_evaluator, official_paths
-from .protocol import Estimate, mean_ci, summarize_runs
 from .retrieval import RetrievalScores, euclidean_distance_matrix, mm_dist, r_precision, retrieval_metrics
 from .sjpe import (
     SJPE_JOINTS,
@@ -54,15 +55,58 @@ from .words import (
 )
 
 __all__ = [
-    "OFFICIAL_PARTS", "POS_CATEGORIES", "SJPE_JOINTS", "VIP_WORDS", "CaptionVocabulary", "ClipJoints",
-    "ContrastiveLosses", "clip_log_jerk",
-    "EncodedCaptions", "Estimate", "EvaluatorConfig", "LearnedWordEmbedding", "MotionEncoderBiGRUCo",
-    "MovementConvEncoder", "OfficialEvaluator", "RetrievalScores", "SJPEResult", "TextEncoderBiGRUCo",
-    "TextMotionEvaluator", "WordVectorizer", "boundaries_from_lengths", "contrastive_loss",
-    "dimensionless_jerk", "diversity", "euclidean_distance_matrix", "fid", "finite_difference_jerk",
-    "frechet_distance", "gaussian_stats", "init_weights", "ldlj_from_log_jerk", "load_official_evaluator",
-    "log_dimensionless_jerk", "log_jerk", "log_jerk_batch", "mean_ci", "mm_dist", "mpjpe", "multimodality",
-    "noise_sjpe_by_phase", "official_paths", "pad_caption", "pos_category", "r_precision", "retrieval_metrics", "sjpe",
-    "sjpe_dataset", "sjpe_from_features", "sjpe_jerk_magnitudes", "sjpe_setting", "sjpe_variants", "summarize_runs",
-    "transition_log_jerk", "transition_windows",
-]  # fmt: skip
+    "OFFICIAL_PARTS",
+    "POS_CATEGORIES",
+    "SJPE_JOINTS",
+    "VIP_WORDS",
+    "CaptionVocabulary",
+    "ClipJoints",
+    "ContrastiveLosses",
+    "clip_log_jerk",
+    "EncodedCaptions",
+    "Estimate",
+    "EvaluatorConfig",
+    "LearnedWordEmbedding",
+    "MotionEncoderBiGRUCo",
+    "MovementConvEncoder",
+    "OfficialEvaluator",
+    "RetrievalScores",
+    "SJPEResult",
+    "TextEncoderBiGRUCo",
+    "TextMotionEvaluator",
+    "WordVectorizer",
+    "boundaries_from_lengths",
+    "contrastive_loss",
+    "dimensionless_jerk",
+    "diversity",
+    "euclidean_distance_matrix",
+    "fid",
+    "finite_difference_jerk",
+    "frechet_distance",
+    "gaussian_stats",
+    "init_weights",
+    "ldlj_from_log_jerk",
+    "load_official_evaluator",
+    "log_dimensionless_jerk",
+    "log_jerk",
+    "log_jerk_batch",
+    "mean_ci",
+    "mm_dist",
+    "mpjpe",
+    "multimodality",
+    "noise_sjpe_by_phase",
+    "official_paths",
+    "pad_caption",
+    "pos_category",
+    "r_precision",
+    "retrieval_metrics",
+    "sjpe",
+    "sjpe_dataset",
+    "sjpe_from_features",
+    "sjpe_jerk_magnitudes",
+    "sjpe_setting",
+    "sjpe_variants",
+    "summarize_runs",
+    "transition_log_jerk",
+    "transition_windows",
+]

@@ -72,15 +72,28 @@ def evaluator_config(profile: str | None = None) -> EvaluatorTrainingConfig:
     """Sizes per profile: ``smoke`` tiny (seconds), ``laptop`` small (minutes on 2 cores), ``full`` official."""
     profile = get_profile(profile)
     if profile == "smoke":
-        nets = EvaluatorConfig(dim_word=32, dim_text_hidden=32, dim_motion_hidden=48, dim_coemb=32,
-                               dim_movement_hidden=48, dim_movement_latent=48)  # fmt: skip
+        nets = EvaluatorConfig(
+            dim_word=32,
+            dim_text_hidden=32,
+            dim_motion_hidden=48,
+            dim_coemb=32,
+            dim_movement_hidden=48,
+            dim_movement_latent=48,
+        )
         return EvaluatorTrainingConfig(nets, steps=120, batch_size=32, lr=2e-3, grad_clip=1.0, val_every=40)
     if profile == "laptop":
-        nets = EvaluatorConfig(dim_word=64, dim_text_hidden=128, dim_motion_hidden=128, dim_coemb=512,
-                               dim_movement_hidden=128, dim_movement_latent=128)  # fmt: skip
+        nets = EvaluatorConfig(
+            dim_word=64,
+            dim_text_hidden=128,
+            dim_motion_hidden=128,
+            dim_coemb=512,
+            dim_movement_hidden=128,
+            dim_movement_latent=128,
+        )
         return EvaluatorTrainingConfig(nets, steps=800, batch_size=32, lr=1e-3, grad_clip=1.0, val_every=200)
-    return EvaluatorTrainingConfig(EvaluatorConfig.official("t2m"), steps=40000, batch_size=32, lr=1e-4,
-                                   grad_clip=0.5, val_every=2000)  # fmt: skip
+    return EvaluatorTrainingConfig(
+        EvaluatorConfig.official("t2m"), steps=40000, batch_size=32, lr=1e-4, grad_clip=0.5, val_every=2000
+    )
 
 
 class EvaluatorNetworks(nn.Module):
@@ -166,8 +179,13 @@ def pad_batch(clips: Sequence[np.ndarray]) -> tuple[torch.Tensor, torch.Tensor]:
 class EvaluatorBatches:
     """Training batches: ``B`` distinct clips, one random caption each, random crops to multiples of 4."""
 
-    def __init__(self, clips: Sequence[Any], normalizer: Normalizer, vocabulary: CaptionVocabulary,
-                 config: EvaluatorTrainingConfig):  # fmt: skip
+    def __init__(
+        self,
+        clips: Sequence[Any],
+        normalizer: Normalizer,
+        vocabulary: CaptionVocabulary,
+        config: EvaluatorTrainingConfig,
+    ):
         self.unit, self.max_frames, self.batch_size = config.evaluator.unit_length, config.max_frames, config.batch_size
         self.motions = [normalizer.normalize(c.features).astype(np.float32) for c in clips]
         self.captions = [[caption_tokens(cap) for cap in c.captions] for c in clips]
@@ -187,8 +205,13 @@ class EvaluatorBatches:
             texts.append(caps[int(torch.randint(len(caps), (1,), generator=generator))])
         motions, lengths = pad_batch(crops)  # (B, T, D), (B,)
         enc = self.vocabulary.encode(texts)
-        return {"ids": enc.words, "pos": enc.pos_onehot, "text_lengths": enc.lengths,
-                "motions": motions, "motion_lengths": lengths}  # fmt: skip
+        return {
+            "ids": enc.words,
+            "pos": enc.pos_onehot,
+            "text_lengths": enc.lengths,
+            "motions": motions,
+            "motion_lengths": lengths,
+        }
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -265,8 +288,9 @@ class EmbeddedEvaluator:
         if len(generated_features) != len(captions):
             raise ValueError(f"{len(generated_features)} generated motions but {len(captions)} captions")
         real = self.embed_motions([getattr(c, "features", c) for c in gt_clips])
-        return protocol_scores(real, self.embed_motions(generated_features), self.embed_texts(captions), rng,
-                               batch_size, diversity_pairs)  # fmt: skip
+        return protocol_scores(
+            real, self.embed_motions(generated_features), self.embed_texts(captions), rng, batch_size, diversity_pairs
+        )
 
 
 def protocol_scores(
@@ -287,8 +311,12 @@ def protocol_scores(
         raise ValueError(f"rng must be a numpy Generator or an integer seed, got {type(rng).__name__}")
     scores = retrieval_metrics(text_emb, generated_emb, batch_size=batch_size, top_k=3, rng=rng)
     top = {f"top{k + 1}": float(v) for k, v in enumerate(scores.r_precision)}
-    return {"fid": fid(real_emb, generated_emb), **top, "mm_dist": scores.mm_dist,
-            "diversity": diversity(generated_emb, rng, n_pairs=diversity_pairs)}  # fmt: skip
+    return {
+        "fid": fid(real_emb, generated_emb),
+        **top,
+        "mm_dist": scores.mm_dist,
+        "diversity": diversity(generated_emb, rng, n_pairs=diversity_pairs),
+    }
 
 
 def pick_captions(clips: Sequence[Any], rng: np.random.Generator) -> list[Any]:
@@ -346,9 +374,17 @@ def _validation_fn(dataset, vocabulary: CaptionVocabulary, split: str = "val"):
 EVALUATOR_PRECISION = "fp32"
 
 
-def evaluator_trainer(model: EvaluatorNetworks, dataset, vocabulary: CaptionVocabulary,
-                      config: EvaluatorTrainingConfig, *, workdir: Path | None = None, device=None,
-                      progress: bool = False, precision: str = EVALUATOR_PRECISION) -> Trainer:  # fmt: skip
+def evaluator_trainer(
+    model: EvaluatorNetworks,
+    dataset,
+    vocabulary: CaptionVocabulary,
+    config: EvaluatorTrainingConfig,
+    *,
+    workdir: Path | None = None,
+    device=None,
+    progress: bool = False,
+    precision: str = EVALUATOR_PRECISION,
+) -> Trainer:
     """The :class:`~motionlab.train.Trainer` of the evaluator's networks on ``dataset``'s train split (not run yet:
     :func:`train_evaluator` and the cache fit it; ``benchmarks/bench_train.py`` times its steps)."""
 
@@ -361,19 +397,37 @@ def evaluator_trainer(model: EvaluatorNetworks, dataset, vocabulary: CaptionVoca
         return {"loss": losses.total, "positive": losses.positive, "negative": losses.negative}
 
     batches = EvaluatorBatches(dataset.split("train"), dataset.normalizer, vocabulary, config)
-    train = TrainConfig(steps=config.steps, lr=config.lr, betas=(0.9, 0.999), schedule="cosine",
-                        grad_clip=config.grad_clip, seed=config.seed, log_every=max(1, config.steps // 50),
-                        val_every=config.val_every)  # fmt: skip
-    return Trainer(model, loss_fn, batches, train, val_fn=_validation_fn(dataset, vocabulary), workdir=workdir,
-                   device=device, desc="evaluator", progress=progress, precision=precision)  # fmt: skip
+    train = TrainConfig(
+        steps=config.steps,
+        lr=config.lr,
+        betas=(0.9, 0.999),
+        schedule="cosine",
+        grad_clip=config.grad_clip,
+        seed=config.seed,
+        log_every=max(1, config.steps // 50),
+        val_every=config.val_every,
+    )
+    return Trainer(
+        model,
+        loss_fn,
+        batches,
+        train,
+        val_fn=_validation_fn(dataset, vocabulary),
+        workdir=workdir,
+        device=device,
+        desc="evaluator",
+        progress=progress,
+        precision=precision,
+    )
 
 
 def _train_fn(dataset, vocabulary: CaptionVocabulary, config: EvaluatorTrainingConfig, progress: bool, device=None):
     """``train_fn(model, workdir)`` for :func:`motionlab.train.train_or_load`; the data is read only when called."""
 
     def train_fn(model: nn.Module, workdir: Path | None) -> dict:
-        trainer = evaluator_trainer(model, dataset, vocabulary, config, workdir=workdir, device=device,
-                                    progress=progress)  # fmt: skip
+        trainer = evaluator_trainer(
+            model, dataset, vocabulary, config, workdir=workdir, device=device, progress=progress
+        )
         history = trainer.fit()
         return {"history": history, "final_val": trainer.validate()}
 
@@ -434,8 +488,16 @@ def load_or_train_evaluator(
     config = config or evaluator_config(profile)
     vocabulary = build_vocabulary(dataset, config)
     extra = cache_extra(dataset, vocabulary)
-    model = train_or_load(MODEL_NAME, config, _builder(vocabulary, config.seed),
-                          _train_fn(dataset, vocabulary, config, progress, device), profile,
-                          extra=extra, device=device, retrain=retrain, precision=EVALUATOR_PRECISION)  # fmt: skip
+    model = train_or_load(
+        MODEL_NAME,
+        config,
+        _builder(vocabulary, config.seed),
+        _train_fn(dataset, vocabulary, config, progress, device),
+        profile,
+        extra=extra,
+        device=device,
+        retrain=retrain,
+        precision=EVALUATOR_PRECISION,
+    )
     history = load_result(MODEL_NAME, config, profile, extra, device, EVALUATOR_PRECISION)["history"]
     return EmbeddedEvaluator(model, vocabulary, dataset.normalizer, history=history)

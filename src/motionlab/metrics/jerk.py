@@ -174,9 +174,12 @@ _WINDOW_BLOCK = 64  # windows gathered at a time: the (block, W, J, 3) copy and 
 
 
 def clip_log_jerk(
-    joints: ClipJoints, boundaries: Sequence[int] | None = None, window: int = 40, time_unit: str = "frames",
+    joints: ClipJoints,
+    boundaries: Sequence[int] | None = None,
+    window: int = 40,
+    time_unit: str = "frames",
     fps: float = 20.0,
-) -> np.ndarray:  # fmt: skip
+) -> np.ndarray:
     """Eq. 10 around one boundary of every clip of a set ``(N,)``, without a loop over clips.
 
     ``boundaries[i]`` (default: each clip's middle frame, ``T_i // 2``) is a frame strictly inside clip ``i``;

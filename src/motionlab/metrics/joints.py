@@ -34,8 +34,9 @@ class ClipJoints:
         object.__setattr__(self, "lengths", np.asarray(self.lengths, dtype=np.int64))
         p = self.positions
         if not isinstance(p, np.ndarray) or p.ndim != 3 or p.shape[-1] != 3 or p.dtype != np.float64:
-            raise ValueError(f"positions must be a float64 (F, J, 3) array, got {getattr(p, 'dtype', type(p))} "
-                             f"{np.shape(p)}")  # fmt: skip
+            raise ValueError(
+                f"positions must be a float64 (F, J, 3) array, got {getattr(p, 'dtype', type(p))} {np.shape(p)}"
+            )
         if self.lengths.ndim != 1 or (self.lengths < 1).any() or self.lengths.sum() != len(p):
             raise ValueError(f"lengths must be positive and sum to the {len(p)} frames of positions")
 
@@ -69,8 +70,9 @@ class ClipJoints:
         else:
             padded = as_numpy(clips)
             if padded.ndim != 4 or padded.shape[-1] != 3:
-                raise ValueError(f"clips must be a list of (T_i, J, 3) or a padded (N, T, J, 3) array, "
-                                 f"got shape {padded.shape}")  # fmt: skip
+                raise ValueError(
+                    f"clips must be a list of (T_i, J, 3) or a padded (N, T, J, 3) array, got shape {padded.shape}"
+                )
             n = np.full(len(padded), padded.shape[1], np.int64) if lengths is None else np.asarray(lengths, np.int64)
             if n.shape != (len(padded),) or (n < 1).any() or (n > padded.shape[1]).any():
                 raise ValueError(f"lengths must be {len(padded)} values in [1, {padded.shape[1]}], got {n.tolist()}")

@@ -167,8 +167,9 @@ def _clip_joints(clips, lengths, name: str, setting: SJPESetting) -> ClipJoints:
         raise ValueError(f"{name} must have shape (T, {setting.n_joints}, 3), got {joints.n_joints} joints")
     short = np.flatnonzero(joints.lengths < 4)
     if len(short):
-        raise ValueError(f"{name}[{short[0]}] needs at least 4 frames (a third difference), "
-                         f"got {joints.lengths[short[0]]}")  # fmt: skip
+        raise ValueError(
+            f"{name}[{short[0]}] needs at least 4 frames (a third difference), got {joints.lengths[short[0]]}"
+        )
     return joints
 
 
@@ -210,9 +211,12 @@ def sjpe_dataset(
 
 
 def sjpe_variants(
-    pred_clips, gt_clips, skeleton: str = "t2m", variants: Sequence[str] = VARIANTS,
+    pred_clips,
+    gt_clips,
+    skeleton: str = "t2m",
+    variants: Sequence[str] = VARIANTS,
     lengths: Sequence[int] | None = None,
-) -> dict[str, SJPEResult]:  # fmt: skip
+) -> dict[str, SJPEResult]:
     """:func:`sjpe_dataset` for several ``variants`` at once: the jerks are computed once and scored per variant."""
     unknown = [v for v in variants if v not in VARIANTS]
     if unknown:
@@ -237,8 +241,12 @@ def sjpe_variants(
         jp, clip_id = _jerk_magnitudes(_select(pred.positions[rows], setting), n, setting.fps)
         jg, _ = _jerk_magnitudes(_select(gt.positions[rows], setting), n, setting.fps)
         n_cells = np.bincount(clip_id, minlength=b - a) * len(setting.joints)
-        means.append((np.bincount(clip_id, weights=_row_sums(jp), minlength=b - a) / n_cells,
-                      np.bincount(clip_id, weights=_row_sums(jg), minlength=b - a) / n_cells))  # fmt: skip
+        means.append(
+            (
+                np.bincount(clip_id, weights=_row_sums(jp), minlength=b - a) / n_cells,
+                np.bincount(clip_id, weights=_row_sums(jg), minlength=b - a) / n_cells,
+            )
+        )
         for v in variants:
             parts[v].append(_score(jp, jg, clip_id, b - a, v))
     mean_p, mean_g = (np.concatenate(m) for m in zip(*means))

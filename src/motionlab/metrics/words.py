@@ -27,26 +27,107 @@ import torch
 from torch import nn
 
 POS_CATEGORIES = (
-    "VERB", "NOUN", "DET", "ADP", "NUM", "AUX", "PRON", "ADJ", "ADV",
-    "Loc_VIP", "Body_VIP", "Obj_VIP", "Act_VIP", "Desc_VIP", "OTHER",
-)  # fmt: skip
+    "VERB",
+    "NOUN",
+    "DET",
+    "ADP",
+    "NUM",
+    "AUX",
+    "PRON",
+    "ADJ",
+    "ADV",
+    "Loc_VIP",
+    "Body_VIP",
+    "Obj_VIP",
+    "Act_VIP",
+    "Desc_VIP",
+    "OTHER",
+)
 POS_INDEX = {name: i for i, name in enumerate(POS_CATEGORIES)}
 
 # The evaluator's hard-coded motion vocabulary: these words get their VIP category instead of their tag.
 VIP_WORDS = {
-    "Loc_VIP": ("left", "right", "clockwise", "counterclockwise", "anticlockwise", "forward", "back",
-                "backward", "up", "down", "straight", "curve"),
-    "Body_VIP": ("arm", "chin", "foot", "feet", "face", "hand", "mouth", "leg", "waist", "eye", "knee",
-                 "shoulder", "thigh"),
-    "Obj_VIP": ("stair", "dumbbell", "chair", "window", "floor", "car", "ball", "handrail", "baseball",
-                "basketball"),
-    "Act_VIP": ("walk", "run", "swing", "pick", "bring", "kick", "put", "squat", "throw", "hop", "dance",
-                "jump", "turn", "stumble", "stop", "sit", "lift", "lower", "raise", "wash", "stand", "kneel",
-                "stroll", "rub", "bend", "balance", "flap", "jog", "shuffle", "lean", "rotate", "spin",
-                "spread", "climb"),
-    "Desc_VIP": ("slowly", "carefully", "fast", "careful", "slow", "quickly", "happy", "angry", "sad",
-                 "happily", "angrily", "sadly"),
-}  # fmt: skip
+    "Loc_VIP": (
+        "left",
+        "right",
+        "clockwise",
+        "counterclockwise",
+        "anticlockwise",
+        "forward",
+        "back",
+        "backward",
+        "up",
+        "down",
+        "straight",
+        "curve",
+    ),
+    "Body_VIP": (
+        "arm",
+        "chin",
+        "foot",
+        "feet",
+        "face",
+        "hand",
+        "mouth",
+        "leg",
+        "waist",
+        "eye",
+        "knee",
+        "shoulder",
+        "thigh",
+    ),
+    "Obj_VIP": ("stair", "dumbbell", "chair", "window", "floor", "car", "ball", "handrail", "baseball", "basketball"),
+    "Act_VIP": (
+        "walk",
+        "run",
+        "swing",
+        "pick",
+        "bring",
+        "kick",
+        "put",
+        "squat",
+        "throw",
+        "hop",
+        "dance",
+        "jump",
+        "turn",
+        "stumble",
+        "stop",
+        "sit",
+        "lift",
+        "lower",
+        "raise",
+        "wash",
+        "stand",
+        "kneel",
+        "stroll",
+        "rub",
+        "bend",
+        "balance",
+        "flap",
+        "jog",
+        "shuffle",
+        "lean",
+        "rotate",
+        "spin",
+        "spread",
+        "climb",
+    ),
+    "Desc_VIP": (
+        "slowly",
+        "carefully",
+        "fast",
+        "careful",
+        "slow",
+        "quickly",
+        "happy",
+        "angry",
+        "sad",
+        "happily",
+        "angrily",
+        "sadly",
+    ),
+}
 _VIP_OF = {word: cat for cat, words in VIP_WORDS.items() for word in words}
 
 SOS, EOS, UNK = "sos", "eos", "unk"
@@ -134,8 +215,11 @@ class WordVectorizer:
             vecs.append(np.stack([p[0] for p in pairs]))
             ohots.append(np.stack([p[1] for p in pairs]))
             lengths.append(n)
-        return EncodedCaptions(torch.from_numpy(np.stack(vecs)), torch.from_numpy(np.stack(ohots)),
-                               torch.tensor(lengths, dtype=torch.int64))  # fmt: skip
+        return EncodedCaptions(
+            torch.from_numpy(np.stack(vecs)),
+            torch.from_numpy(np.stack(ohots)),
+            torch.tensor(lengths, dtype=torch.int64),
+        )
 
 
 class CaptionVocabulary:
@@ -176,8 +260,11 @@ class CaptionVocabulary:
             ids.append([self.index.get(w, self.index[UNK]) for w, _ in split])
             ohots.append(_onehot([pos_category(w, p, w in self.index) for w, p in split]))
             lengths.append(n)
-        return EncodedCaptions(torch.tensor(ids, dtype=torch.int64), torch.from_numpy(np.stack(ohots)),
-                               torch.tensor(lengths, dtype=torch.int64))  # fmt: skip
+        return EncodedCaptions(
+            torch.tensor(ids, dtype=torch.int64),
+            torch.from_numpy(np.stack(ohots)),
+            torch.tensor(lengths, dtype=torch.int64),
+        )
 
 
 class LearnedWordEmbedding(nn.Module):

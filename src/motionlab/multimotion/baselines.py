@@ -48,8 +48,10 @@ DEFAULT_TRANSITION = 40  # frames: M2D2M's transition window and handshake size
 
 def _check_transition(transition: int, unit: int) -> int:
     if not isinstance(transition, int) or transition <= 0 or transition % (2 * unit):
-        raise ValueError(f"transition must be a positive multiple of {2 * unit} frames (half of it on each "
-                         f"side of a boundary, in whole tokens), got {transition!r}")  # fmt: skip
+        raise ValueError(
+            f"transition must be a positive multiple of {2 * unit} frames (half of it on each "
+            f"side of a boundary, in whole tokens), got {transition!r}"
+        )
     return transition // 2
 
 
@@ -78,8 +80,10 @@ def shortened_lengths(lengths: Sequence[int], transition: int = DEFAULT_TRANSITI
     inner = [(i > 0) + (i < len(lengths) - 1) for i in range(len(lengths))]
     out = [n - half * k for n, k in zip(lengths, inner, strict=True)]
     if any(n < unit for n in out):
-        raise ValueError(f"actions of {lengths} frames are too short for a {transition}-frame transition: each "
-                         f"needs {unit} frames left after giving {half} to every neighbour")  # fmt: skip
+        raise ValueError(
+            f"actions of {lengths} frames are too short for a {transition}-frame transition: each "
+            f"needs {unit} frames left after giving {half} to every neighbour"
+        )
     return out
 
 

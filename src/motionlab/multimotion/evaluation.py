@@ -98,8 +98,12 @@ def transition_profile(motions: Sequence, window: int = DEFAULT_WINDOW) -> dict[
                 jerks.append(np.linalg.norm(np.diff(w, n=3, axis=0), axis=-1).mean(-1))
     if not speeds:
         raise ValueError(f"no boundary has {half} frames on both sides")
-    return {"frames": np.arange(-half, half - 1), "speed": np.mean(speeds, 0), "jerk": np.mean(jerks, 0),
-            "n": np.array(len(speeds))}  # fmt: skip
+    return {
+        "frames": np.arange(-half, half - 1),
+        "speed": np.mean(speeds, 0),
+        "jerk": np.mean(jerks, 0),
+        "n": np.array(len(speeds)),
+    }
 
 
 # ---------------------------------------------------------------------------------------------- evaluation
@@ -114,8 +118,9 @@ class MultiMotionReference:
     window: int
 
 
-def build_reference(evaluator, real_clips: Sequence[np.ndarray], *, rng, window: int = DEFAULT_WINDOW,
-                    n_windows: int | None = None) -> MultiMotionReference:  # fmt: skip
+def build_reference(
+    evaluator, real_clips: Sequence[np.ndarray], *, rng, window: int = DEFAULT_WINDOW, n_windows: int | None = None
+) -> MultiMotionReference:
     """Embed the real single-action clips (raw features) and ``n_windows`` random real windows of them."""
     clips = [np.asarray(getattr(c, "features", c)) for c in real_clips]
     if len(clips) < 2:
@@ -132,8 +137,12 @@ def _individual(evaluator, segments, captions, reference, rng, batch_size, diver
     motion = evaluator.embed_motions(segments)
     text = evaluator.embed_texts(list(captions))
     scores = retrieval_metrics(text, motion, batch_size=min(batch_size, len(segments)), top_k=3, rng=rng)
-    return {"r_top3": float(scores.r_precision[2]), "fid": fid(reference.segment_embeddings, motion),
-            "mm_dist": scores.mm_dist, "diversity": diversity(motion, rng, n_pairs=diversity_pairs)}  # fmt: skip
+    return {
+        "r_top3": float(scores.r_precision[2]),
+        "fid": fid(reference.segment_embeddings, motion),
+        "mm_dist": scores.mm_dist,
+        "diversity": diversity(motion, rng, n_pairs=diversity_pairs),
+    }
 
 
 def _transitions(evaluator, windows, jerks, reference, rng, diversity_pairs) -> dict[str, float]:
@@ -141,9 +150,11 @@ def _transitions(evaluator, windows, jerks, reference, rng, diversity_pairs) -> 
         raise ValueError(f"need at least 2 transitions, got {len(windows)}")
     emb = evaluator.embed_motions(windows)
     jerks = np.asarray(jerks, dtype=np.float64)
-    return {"transition_fid": fid(reference.window_embeddings, emb),
-            "transition_diversity": diversity(emb, rng, n_pairs=diversity_pairs),
-            "jerk": float(np.nanmean(jerks)) if np.isfinite(jerks).any() else float("nan")}  # fmt: skip
+    return {
+        "transition_fid": fid(reference.window_embeddings, emb),
+        "transition_diversity": diversity(emb, rng, n_pairs=diversity_pairs),
+        "jerk": float(np.nanmean(jerks)) if np.isfinite(jerks).any() else float("nan"),
+    }
 
 
 def evaluate_multimotion(
@@ -178,8 +189,15 @@ def evaluate_multimotion(
     return {**out, **_transitions(evaluator, windows, jerks, reference, rng, diversity_pairs)}
 
 
-def evaluate_ground_truth_single(evaluator, instances: Sequence, reference: MultiMotionReference, *, rng,
-                                 batch_size: int = 32, diversity_pairs: int = 300) -> dict[str, float]:  # fmt: skip
+def evaluate_ground_truth_single(
+    evaluator,
+    instances: Sequence,
+    reference: MultiMotionReference,
+    *,
+    rng,
+    batch_size: int = 32,
+    diversity_pairs: int = 300,
+) -> dict[str, float]:
     """The "ground truth (single)" row: the test set's real clips as the actions and fresh real windows as the
     transitions (as many as the instances have boundaries), scored like :func:`evaluate_multimotion`."""
     rng = _rng(rng)
@@ -208,8 +226,9 @@ class GroundTruthJerks(NamedTuple):
     cut_minus_inside: np.ndarray  # (n_boundaries,): each cut − the mean inside-window Jerk of its two clips
 
 
-def ground_truth_jerks(instances: Sequence, window: int = DEFAULT_WINDOW, *, rng,
-                       windows_per_segment: int = 8) -> GroundTruthJerks:  # fmt: skip
+def ground_truth_jerks(
+    instances: Sequence, window: int = DEFAULT_WINDOW, *, rng, windows_per_segment: int = 8
+) -> GroundTruthJerks:
     """The two ground-truth Jerks of M2D2M Table 1 as samples, for intervals (see :class:`GroundTruthJerks`).
 
     ``single``: Eq. 10 on ``windows_per_segment`` random windows inside every real action segment of the instances
@@ -235,8 +254,10 @@ def ground_truth_jerks(instances: Sequence, window: int = DEFAULT_WINDOW, *, rng
         if len(inst.lengths) > 1:
             cuts = transition_jerk(*inst.real_concat(), window)  # (n_actions - 1,)
             concat.append(cuts)
-            paired += [cut - (np.nanmean(a) + np.nanmean(b)) / 2 if a is not None and b is not None else np.nan
-                       for cut, a, b in zip(cuts, inside[:-1], inside[1:], strict=True)]  # fmt: skip
+            paired += [
+                cut - (np.nanmean(a) + np.nanmean(b)) / 2 if a is not None and b is not None else np.nan
+                for cut, a, b in zip(cuts, inside[:-1], inside[1:], strict=True)
+            ]
     if not single:
         raise ValueError(f"no real segment has the {window} frames a window needs")
     if not concat:
@@ -331,8 +352,9 @@ def summarize(runs: Sequence[Mapping[str, float]]) -> dict[str, tuple[float, flo
     return out
 
 
-def format_table(rows: Mapping[str, Mapping[str, tuple[float, float]]], metrics: Sequence[str] = METRICS,
-                 digits: int = 3) -> str:  # fmt: skip
+def format_table(
+    rows: Mapping[str, Mapping[str, tuple[float, float]]], metrics: Sequence[str] = METRICS, digits: int = 3
+) -> str:
     """A Markdown table, one row per method (``summarize`` outputs); a missing metric prints as '-'."""
     head = "| method | " + " | ".join(metrics) + " |\n|---|" + "---|" * len(metrics)
     lines = [head]

@@ -67,8 +67,9 @@ def _instances(texts, lengths) -> tuple[list[list[str]], list[list[int]]]:
     if not texts or any(len(t) == 0 for t in texts):
         raise ValueError("texts must be a non-empty list of action texts (or a list of such lists)")
     if len(texts) != len(lengths) or any(len(t) != len(n) for t, n in zip(texts, lengths, strict=False)):
-        raise ValueError(f"texts and lengths must match one to one, got {len(texts)} instance(s) of texts and "
-                         f"lengths {lengths}")  # fmt: skip
+        raise ValueError(
+            f"texts and lengths must match one to one, got {len(texts)} instance(s) of texts and lengths {lengths}"
+        )
     return texts, lengths
 
 
@@ -100,8 +101,17 @@ class MultiMotionGenerator:
         dev = next(self.model.parameters()).device
         return feats.tokens.to(dev), feats.padding_mask.to(dev)
 
-    def sample_tokens(self, texts, lengths, *, method: str = "tps", seed: int = 0, T_s: int | None = None,
-                      transition: int = DEFAULT_TRANSITION, **sampling) -> MultiMotionTokens:  # fmt: skip
+    def sample_tokens(
+        self,
+        texts,
+        lengths,
+        *,
+        method: str = "tps",
+        seed: int = 0,
+        T_s: int | None = None,
+        transition: int = DEFAULT_TRANSITION,
+        **sampling,
+    ) -> MultiMotionTokens:
         """Token ids of every action for ``method`` (``slerp`` samples each action shorter, as
         :func:`~motionlab.multimotion.baselines.shortened_lengths` says, so the blend restores ``lengths``)."""
         texts, lengths = _instances(texts, lengths)
@@ -121,8 +131,17 @@ class MultiMotionGenerator:
             return handshake_sample(*args, lengths, generator=g, transition=transition, **sampling)
         raise ValueError(f"method must be one of {METHODS}, got {method!r}")
 
-    def generate(self, texts, lengths, *, method: str = "tps", seed: int = 0, T_s: int | None = None,
-                 transition: int = DEFAULT_TRANSITION, **sampling) -> list[MultiMotion]:  # fmt: skip
+    def generate(
+        self,
+        texts,
+        lengths,
+        *,
+        method: str = "tps",
+        seed: int = 0,
+        T_s: int | None = None,
+        transition: int = DEFAULT_TRANSITION,
+        **sampling,
+    ) -> list[MultiMotion]:
         """Multi-motions for one instance (``texts``: list of str, ``lengths``: frames, multiples of 4) or a
         batch (lists of lists). ``sampling``: num_steps, timesteps, guidance_scale, top_p, top_k, ...;
         ``T_s`` for ``tps`` (default 0.9·T), ``transition`` (frames) for ``slerp`` and ``handshake``."""
@@ -130,8 +149,7 @@ class MultiMotionGenerator:
             raise ValueError(f"method must be one of {METHODS}, got {method!r}")
         texts, lengths = _instances(texts, lengths)
         segment_layout(lengths)  # validate before any work
-        out = self.sample_tokens(texts, lengths, method=method, seed=seed, T_s=T_s, transition=transition,
-                                 **sampling)  # fmt: skip
+        out = self.sample_tokens(texts, lengths, method=method, seed=seed, T_s=T_s, transition=transition, **sampling)
         if method in ("tps", "independent", "handshake"):  # one decoder pass over the concatenated tokens
             decoded = self.decode(out.concatenated())
             return [MultiMotion(np.asarray(f), out.boundaries(b), texts[b], method) for b, f in enumerate(decoded)]

@@ -65,8 +65,9 @@ def _single_verb(caption: Caption) -> str | None:
     return verbs[0] if len(verbs) == 1 else None
 
 
-def single_action_pool(dataset: MotionDataset, split: str = "test", unit: int = 4,
-                       min_frames: int = MIN_ACTION_FRAMES) -> list[PoolClip]:  # fmt: skip
+def single_action_pool(
+    dataset: MotionDataset, split: str = "test", unit: int = 4, min_frames: int = MIN_ACTION_FRAMES
+) -> list[PoolClip]:
     """Single-action clips of ``split`` of at least ``min_frames`` (after flooring to ``unit``), with their family
     (see the module docstring)."""
     meta_path = dataset.root / "meta.json"
@@ -110,8 +111,10 @@ def build_multi_action_testset(
         by_family.setdefault(p.family, []).append(p)
     families = sorted(by_family)
     if distinct_families and n_actions > len(families):
-        raise ValueError(f"n_actions={n_actions} distinct families requested but the pool has only "
-                         f"{len(families)}; pass distinct_families=False to allow repeats")  # fmt: skip
+        raise ValueError(
+            f"n_actions={n_actions} distinct families requested but the pool has only "
+            f"{len(families)}; pass distinct_families=False to allow repeats"
+        )
     if not distinct_families and n_actions > len(pool):
         raise ValueError(f"n_actions={n_actions} exceeds the {len(pool)} single-action clips of the pool")
     n_instances = len(pool) // n_actions if n_instances is None else n_instances
@@ -126,7 +129,12 @@ def build_multi_action_testset(
         else:
             chosen = [pool[i] for i in rng.choice(len(pool), n_actions, replace=False)]
         captions = tuple(p.captions[int(rng.integers(len(p.captions)))] for p in chosen)
-        out.append(MultiActionInstance(clips=tuple(p.clip for p in chosen), captions=captions,
-                                       families=tuple(p.family for p in chosen),
-                                       lengths=tuple(floor_to_unit(p.clip.length, unit) for p in chosen)))  # fmt: skip
+        out.append(
+            MultiActionInstance(
+                clips=tuple(p.clip for p in chosen),
+                captions=captions,
+                families=tuple(p.family for p in chosen),
+                lengths=tuple(floor_to_unit(p.clip.length, unit) for p in chosen),
+            )
+        )
     return out

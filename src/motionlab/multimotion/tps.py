@@ -80,8 +80,9 @@ class SegmentLayout:
         if isinstance(lengths, Tensor):
             lengths = lengths.tolist()
         if isinstance(lengths, (str, bytes)) or not isinstance(lengths, Sequence) or len(lengths) == 0:
-            raise ValueError(f"segment_lengths must be a non-empty list of frame counts (or of such lists), "
-                             f"got {lengths!r}")  # fmt: skip
+            raise ValueError(
+                f"segment_lengths must be a non-empty list of frame counts (or of such lists), got {lengths!r}"
+            )
         nested = all(isinstance(x, Sequence) and not isinstance(x, str) for x in lengths)
         instances = [list(x) for x in lengths] if nested else [list(lengths)]
         out = []
@@ -90,8 +91,9 @@ class SegmentLayout:
                 raise ValueError(f"instance {b} has {len(inst)} actions; expected 1 to max_actions={max_actions}")
             for n in inst:
                 if not isinstance(n, numbers.Integral) or isinstance(n, bool) or n < unit or n % unit:
-                    raise ValueError(f"segment lengths must be positive multiples of {unit} frames, got {n!r} "
-                                     f"in instance {b}")  # fmt: skip
+                    raise ValueError(
+                        f"segment lengths must be positive multiples of {unit} frames, got {n!r} in instance {b}"
+                    )
             out.append(tuple(int(n) // unit for n in inst))
         return cls(tuple(out), unit)
 
@@ -218,8 +220,10 @@ def text_tensors(text, n_segments: int) -> tuple[Tensor, Tensor]:
     else:
         raise ValueError("text must be TextFeatures (or a (tokens, padding_mask) pair), one row per segment")
     if not torch.is_tensor(tokens) or tokens.ndim != 3 or tokens.shape[0] != n_segments:
-        raise ValueError(f"text tokens must be (M={n_segments}, S, d) — one row per segment — got "
-                         f"{tuple(getattr(tokens, 'shape', ()))}")  # fmt: skip
+        raise ValueError(
+            f"text tokens must be (M={n_segments}, S, d) — one row per segment — got "
+            f"{tuple(getattr(tokens, 'shape', ()))}"
+        )
     if pad is None:
         pad = torch.zeros(tokens.shape[:2], dtype=torch.bool, device=tokens.device)
     if tuple(pad.shape) != tuple(tokens.shape[:2]):
@@ -306,23 +310,37 @@ def two_phase_sample(
     tokens, text_pad = text_tensors(text, layout.n_segments)
     grid = phase_grid(transitions.T, T_s, num_steps, timesteps)
     dev, mask_id = tokens.device, transitions.mask_id
-    step_kw = dict(generator=generator, guidance_scale=guidance_scale, guidance_on=guidance_on, top_p=top_p,
-                   top_k=top_k)  # fmt: skip
+    step_kw = dict(
+        generator=generator, guidance_scale=guidance_scale, guidance_on=guidance_on, top_p=top_p, top_k=top_k
+    )
     seg_padding = layout.batch_padding(dev)  # (M, l_max)
     joint = joint_condition(layout, tokens, text_pad, joint_text) if T_s < transitions.T else None
     on_canvas = joint is not None
-    x = torch.full((layout.n_instances, layout.canvas_length) if on_canvas else tuple(seg_padding.shape),
-                   mask_id, dtype=torch.long, device=dev)  # fmt: skip
+    x = torch.full(
+        (layout.n_instances, layout.canvas_length) if on_canvas else tuple(seg_padding.shape),
+        mask_id,
+        dtype=torch.long,
+        device=dev,
+    )
     with network_autocast(dev):  # posteriors stay fp32 (in_fp32); the network's weights are cast once
         for t, t_prev in zip(grid[:-1], grid[1:], strict=True):
             if t > T_s:  # joint: (B, L_c), all segments of an instance in one sequence
-                x = denoise_step(model, transitions, x, t, t_prev, joint.text, joint.text_padding_mask,
-                                 padding_mask=joint.padding_mask, cross_mask=joint.cross_mask, **step_kw)  # fmt: skip
+                x = denoise_step(
+                    model,
+                    transitions,
+                    x,
+                    t,
+                    t_prev,
+                    joint.text,
+                    joint.text_padding_mask,
+                    padding_mask=joint.padding_mask,
+                    cross_mask=joint.cross_mask,
+                    **step_kw,
+                )
                 continue
             if on_canvas:  # the switch: cut the canvas into one row per segment
                 x, on_canvas = layout.split(x, mask_id), False
-            x = denoise_step(model, transitions, x, t, t_prev, tokens, text_pad, padding_mask=seg_padding,
-                             **step_kw)  # fmt: skip
+            x = denoise_step(model, transitions, x, t, t_prev, tokens, text_pad, padding_mask=seg_padding, **step_kw)
     if on_canvas:  # T_s = 0: never left the canvas
         x = layout.split(x, mask_id)
     return MultiMotionTokens(x.masked_fill(seg_padding, pad_id), layout, pad_id)

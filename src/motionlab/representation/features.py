@@ -234,8 +234,9 @@ def _clip_source(features, lengths) -> tuple[Callable[[int, int, int], np.ndarra
         return (lambda a, b, k: np.concatenate([c[:, :k] for c in clips[a:b]])), n, clips[0].shape[-1]
     padded = as_numpy(features)
     if padded.ndim != 3:
-        raise ValueError(f"features must be a list of (T_i, D) arrays or a padded (N, T, D) array, "
-                         f"got shape {padded.shape}")  # fmt: skip
+        raise ValueError(
+            f"features must be a list of (T_i, D) arrays or a padded (N, T, D) array, got shape {padded.shape}"
+        )
     n = np.full(len(padded), padded.shape[1], np.int64) if lengths is None else np.asarray(lengths, np.int64)
     if n.shape != (len(padded),) or (n < 1).any() or (n > padded.shape[1]).any():
         raise ValueError(f"lengths must be {len(padded)} values in [1, {padded.shape[1]}], got {n.tolist()}")

@@ -75,8 +75,10 @@ class Normalizer:
 
     def _stats_like(self, x):
         if isinstance(x, torch.Tensor):
-            return (torch.as_tensor(self.mean, dtype=x.dtype, device=x.device),
-                    torch.as_tensor(self.std, dtype=x.dtype, device=x.device))  # fmt: skip
+            return (
+                torch.as_tensor(self.mean, dtype=x.dtype, device=x.device),
+                torch.as_tensor(self.std, dtype=x.dtype, device=x.device),
+            )
         return self.mean.astype(np.asarray(x).dtype, copy=False), self.std.astype(np.asarray(x).dtype, copy=False)
 
     def _check(self, x):

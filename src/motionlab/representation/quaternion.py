@@ -96,10 +96,16 @@ def _qbetween(v0: torch.Tensor, v1: torch.Tensor) -> torch.Tensor:
 def _quat_to_matrix(q: torch.Tensor) -> torch.Tensor:
     w, x, y, z = _qnormalize(q).unbind(-1)
     rows = (
-        1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
-        2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
-        2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y),
-    )  # fmt: skip
+        1 - 2 * (y * y + z * z),
+        2 * (x * y - w * z),
+        2 * (x * z + w * y),
+        2 * (x * y + w * z),
+        1 - 2 * (x * x + z * z),
+        2 * (y * z - w * x),
+        2 * (x * z - w * y),
+        2 * (y * z + w * x),
+        1 - 2 * (x * x + y * y),
+    )
     return torch.stack(rows, dim=-1).reshape(q.shape[:-1] + (3, 3))
 
 
@@ -111,17 +117,43 @@ def _matrix_to_quat(m: torch.Tensor) -> torch.Tensor:
     )
     best = candidates.argmax(dim=-1)
     s = torch.sqrt(candidates.gather(-1, best[..., None]).clamp_min(_EPS)).squeeze(-1) * 2.0
-    q_w = torch.stack((s / 4, (m[..., 2, 1] - m[..., 1, 2]) / s, (m[..., 0, 2] - m[..., 2, 0]) / s,
-                       (m[..., 1, 0] - m[..., 0, 1]) / s), dim=-1)  # fmt: skip
-    q_x = torch.stack(((m[..., 2, 1] - m[..., 1, 2]) / s, s / 4, (m[..., 0, 1] + m[..., 1, 0]) / s,
-                       (m[..., 0, 2] + m[..., 2, 0]) / s), dim=-1)  # fmt: skip
-    q_y = torch.stack(((m[..., 0, 2] - m[..., 2, 0]) / s, (m[..., 0, 1] + m[..., 1, 0]) / s, s / 4,
-                       (m[..., 1, 2] + m[..., 2, 1]) / s), dim=-1)  # fmt: skip
-    q_z = torch.stack(((m[..., 1, 0] - m[..., 0, 1]) / s, (m[..., 0, 2] + m[..., 2, 0]) / s,
-                       (m[..., 1, 2] + m[..., 2, 1]) / s, s / 4), dim=-1)  # fmt: skip
-    q = torch.stack((q_w, q_x, q_y, q_z), dim=-2).gather(
-        -2, best[..., None, None].expand(best.shape + (1, 4))
+    q_w = torch.stack(
+        (
+            s / 4,
+            (m[..., 2, 1] - m[..., 1, 2]) / s,
+            (m[..., 0, 2] - m[..., 2, 0]) / s,
+            (m[..., 1, 0] - m[..., 0, 1]) / s,
+        ),
+        dim=-1,
     )
+    q_x = torch.stack(
+        (
+            (m[..., 2, 1] - m[..., 1, 2]) / s,
+            s / 4,
+            (m[..., 0, 1] + m[..., 1, 0]) / s,
+            (m[..., 0, 2] + m[..., 2, 0]) / s,
+        ),
+        dim=-1,
+    )
+    q_y = torch.stack(
+        (
+            (m[..., 0, 2] - m[..., 2, 0]) / s,
+            (m[..., 0, 1] + m[..., 1, 0]) / s,
+            s / 4,
+            (m[..., 1, 2] + m[..., 2, 1]) / s,
+        ),
+        dim=-1,
+    )
+    q_z = torch.stack(
+        (
+            (m[..., 1, 0] - m[..., 0, 1]) / s,
+            (m[..., 0, 2] + m[..., 2, 0]) / s,
+            (m[..., 1, 2] + m[..., 2, 1]) / s,
+            s / 4,
+        ),
+        dim=-1,
+    )
+    q = torch.stack((q_w, q_x, q_y, q_z), dim=-2).gather(-2, best[..., None, None].expand(best.shape + (1, 4)))
     q = q.squeeze(-2)
     return _qnormalize(q * torch.where(q[..., :1] < 0, -1.0, 1.0).to(q.dtype))
 

@@ -72,23 +72,85 @@ class Skeleton:
 
 
 _T2M_NAMES = (
-    "pelvis", "left_hip", "right_hip", "spine1", "left_knee", "right_knee", "spine2", "left_ankle",
-    "right_ankle", "spine3", "left_foot", "right_foot", "neck", "left_collar", "right_collar", "head",
-    "left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_wrist", "right_wrist",
-)  # fmt: skip
+    "pelvis",
+    "left_hip",
+    "right_hip",
+    "spine1",
+    "left_knee",
+    "right_knee",
+    "spine2",
+    "left_ankle",
+    "right_ankle",
+    "spine3",
+    "left_foot",
+    "right_foot",
+    "neck",
+    "left_collar",
+    "right_collar",
+    "head",
+    "left_shoulder",
+    "right_shoulder",
+    "left_elbow",
+    "right_elbow",
+    "left_wrist",
+    "right_wrist",
+)
 
 _T2M_RAW_OFFSETS = np.array(
-    [[0, 0, 0], [1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, -1, 0], [0, 1, 0], [0, -1, 0],
-     [0, -1, 0], [0, 1, 0], [0, 0, 1], [0, 0, 1], [0, 1, 0], [1, 0, 0], [-1, 0, 0], [0, 0, 1],
-     [0, -1, 0], [0, -1, 0], [0, -1, 0], [0, -1, 0], [0, -1, 0], [0, -1, 0]],
+    [
+        [0, 0, 0],
+        [1, 0, 0],
+        [-1, 0, 0],
+        [0, 1, 0],
+        [0, -1, 0],
+        [0, -1, 0],
+        [0, 1, 0],
+        [0, -1, 0],
+        [0, -1, 0],
+        [0, 1, 0],
+        [0, 0, 1],
+        [0, 0, 1],
+        [0, 1, 0],
+        [1, 0, 0],
+        [-1, 0, 0],
+        [0, 0, 1],
+        [0, -1, 0],
+        [0, -1, 0],
+        [0, -1, 0],
+        [0, -1, 0],
+        [0, -1, 0],
+        [0, -1, 0],
+    ],
     dtype=np.float64,
-)  # fmt: skip
+)
 
 # Bone lengths (m) of HumanML3D's target skeleton (clip 000021), as every retargeted clip carries them.
 _T2M_BONE_LENGTHS = np.array(
-    [0.0, 0.1031, 0.1099, 0.1316, 0.3936, 0.3902, 0.1432, 0.4324, 0.4256, 0.0574, 0.1434, 0.1494,
-     0.2194, 0.1375, 0.1434, 0.1030, 0.1316, 0.1230, 0.2568, 0.2631, 0.2660, 0.2699],
-)  # fmt: skip
+    [
+        0.0,
+        0.1031,
+        0.1099,
+        0.1316,
+        0.3936,
+        0.3902,
+        0.1432,
+        0.4324,
+        0.4256,
+        0.0574,
+        0.1434,
+        0.1494,
+        0.2194,
+        0.1375,
+        0.1434,
+        0.1030,
+        0.1316,
+        0.1230,
+        0.2568,
+        0.2631,
+        0.2660,
+        0.2699,
+    ],
+)
 
 T2M = Skeleton(
     name="t2m",
@@ -106,17 +168,55 @@ T2M = Skeleton(
 )
 
 _KIT_NAMES = (
-    "root", "spine", "chest", "neck", "head", "right_shoulder", "right_elbow", "right_wrist",
-    "left_shoulder", "left_elbow", "left_wrist", "right_hip", "right_knee", "right_ankle", "right_heel",
-    "right_toe", "left_hip", "left_knee", "left_ankle", "left_heel", "left_toe",
-)  # fmt: skip
+    "root",
+    "spine",
+    "chest",
+    "neck",
+    "head",
+    "right_shoulder",
+    "right_elbow",
+    "right_wrist",
+    "left_shoulder",
+    "left_elbow",
+    "left_wrist",
+    "right_hip",
+    "right_knee",
+    "right_ankle",
+    "right_heel",
+    "right_toe",
+    "left_hip",
+    "left_knee",
+    "left_ankle",
+    "left_heel",
+    "left_toe",
+)
 
 _KIT_RAW_OFFSETS = np.array(
-    [[0, 0, 0], [0, 1, 0], [0, 1, 0], [0, 1, 0], [0, 1, 0], [1, 0, 0], [0, -1, 0], [0, -1, 0],
-     [-1, 0, 0], [0, -1, 0], [0, -1, 0], [1, 0, 0], [0, -1, 0], [0, -1, 0], [0, 0, 1], [0, 0, 1],
-     [-1, 0, 0], [0, -1, 0], [0, -1, 0], [0, 0, 1], [0, 0, 1]],
+    [
+        [0, 0, 0],
+        [0, 1, 0],
+        [0, 1, 0],
+        [0, 1, 0],
+        [0, 1, 0],
+        [1, 0, 0],
+        [0, -1, 0],
+        [0, -1, 0],
+        [-1, 0, 0],
+        [0, -1, 0],
+        [0, -1, 0],
+        [1, 0, 0],
+        [0, -1, 0],
+        [0, -1, 0],
+        [0, 0, 1],
+        [0, 0, 1],
+        [-1, 0, 0],
+        [0, -1, 0],
+        [0, -1, 0],
+        [0, 0, 1],
+        [0, 0, 1],
+    ],
     dtype=np.float64,
-)  # fmt: skip
+)
 
 # Nominal adult proportions in mm. KIT-ML retargets to its clip 03950, which is not shipped here; a user
 # with the dataset can measure it and call ``KIT.with_bone_lengths``.

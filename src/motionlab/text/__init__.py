@@ -40,6 +40,15 @@ def get_text_encoder(name: str = "word", **kw) -> TextEncoder:
 
 
 __all__ = [
-    "TEXT_ENCODERS", "CLIPTextEncoder", "EncoderUnavailableError", "MiniLMTextEncoder", "TextEncoder",
-    "TextFeatures", "Vocabulary", "WordTextEncoder", "check_texts", "get_text_encoder", "words",
-]  # fmt: skip
+    "TEXT_ENCODERS",
+    "CLIPTextEncoder",
+    "EncoderUnavailableError",
+    "MiniLMTextEncoder",
+    "TextEncoder",
+    "TextFeatures",
+    "Vocabulary",
+    "WordTextEncoder",
+    "check_texts",
+    "get_text_encoder",
+    "words",
+]

@@ -81,8 +81,14 @@ class MiniLMTextEncoder(nn.Module, TextEncoder):
 class CLIPTextEncoder(nn.Module, TextEncoder):
     """CLIP's text tower from a local ``save_pretrained`` folder (e.g. a saved openai/clip-vit-base-patch32)."""
 
-    def __init__(self, path: str | Path, device: str | torch.device = "cpu", trainable: bool = False,
-                 normalize_tokens: bool = True, max_length: int = 77) -> None:  # fmt: skip
+    def __init__(
+        self,
+        path: str | Path,
+        device: str | torch.device = "cpu",
+        trainable: bool = False,
+        normalize_tokens: bool = True,
+        max_length: int = 77,
+    ) -> None:
         super().__init__()
         if path is None:
             raise EncoderUnavailableError("the 'clip' text encoder needs path=<folder with CLIP weights on disk>")

@@ -74,8 +74,9 @@ class WordTextEncoder(nn.Module, TextEncoder):
         self.vocab, self.dim, self.max_len = vocab, dim, max_len
         self.embed = nn.Embedding(len(vocab), dim, padding_idx=0)
         self.pos = nn.Embedding(max_len, dim)
-        layer = nn.TransformerEncoderLayer(dim, n_heads, 4 * dim, dropout, activation="gelu", batch_first=True,
-                                           norm_first=True)  # fmt: skip
+        layer = nn.TransformerEncoderLayer(
+            dim, n_heads, 4 * dim, dropout, activation="gelu", batch_first=True, norm_first=True
+        )
         self.layers = nn.TransformerEncoder(layer, n_layers, enable_nested_tensor=False)
         self.norm = nn.LayerNorm(dim)
         g = torch.Generator().manual_seed(seed)

@@ -165,8 +165,9 @@ def codebook_pca(codes: torch.Tensor | np.ndarray, n_components: int = 2) -> tup
 # A quantizer on 2-D points
 
 
-def gaussian_ring(n: int, modes: int = 8, radius: float = 1.0, std: float = 0.1, *,
-                  generator: torch.Generator) -> torch.Tensor:  # fmt: skip
+def gaussian_ring(
+    n: int, modes: int = 8, radius: float = 1.0, std: float = 0.1, *, generator: torch.Generator
+) -> torch.Tensor:
     """``n`` points ``(n, 2)`` from ``modes`` equal Gaussian blobs spaced evenly on a circle."""
     if n < 1 or modes < 1 or radius < 0 or std < 0:
         raise ValueError(f"need n >= 1, modes >= 1, radius >= 0, std >= 0; got {n}, {modes}, {radius}, {std}")
@@ -219,6 +220,12 @@ def track_codebook(
 
 
 __all__ = [
-    "CodebookTrace", "CodebookUsage", "Reconstruction", "codebook_pca", "codebook_usage", "gaussian_ring",
-    "reconstruct_clips", "track_codebook",
-]  # fmt: skip
+    "CodebookTrace",
+    "CodebookUsage",
+    "Reconstruction",
+    "codebook_pca",
+    "codebook_usage",
+    "gaussian_ring",
+    "reconstruct_clips",
+    "track_codebook",
+]

@@ -33,10 +33,20 @@ class VQConfig:
     window: int = 64  # training crop length in frames
     batch_size: int = 256
     seed: int = 0  # weight initialisation and codebook draws
-    train: TrainConfig = field(default_factory=lambda: TrainConfig(
-        steps=300_000, lr=2e-4, betas=(0.9, 0.99), weight_decay=0.0, schedule="multistep",
-        warmup_steps=1000, milestones=(200_000,), gamma=0.05, log_every=100, ckpt_every=5000,
-    ))  # fmt: skip
+    train: TrainConfig = field(
+        default_factory=lambda: TrainConfig(
+            steps=300_000,
+            lr=2e-4,
+            betas=(0.9, 0.99),
+            weight_decay=0.0,
+            schedule="multistep",
+            warmup_steps=1000,
+            milestones=(200_000,),
+            gamma=0.05,
+            log_every=100,
+            ckpt_every=5000,
+        )
+    )
 
     def __post_init__(self):
         if self.window % 4:
@@ -54,21 +64,59 @@ class RVQConfig(VQConfig):
     dropout: float = 0.2
     gumbel_temperature: float = 0.5
     # MoMask: 50 epochs of all windows (≈ 300k iterations at batch 256 is our estimate), lr ×0.05 at 150k and 250k
-    train: TrainConfig = field(default_factory=lambda: TrainConfig(
-        steps=300_000, lr=2e-4, betas=(0.9, 0.99), weight_decay=0.0, schedule="multistep",
-        warmup_steps=2000, milestones=(150_000, 250_000), gamma=0.05, log_every=100, ckpt_every=5000,
-    ))  # fmt: skip
+    train: TrainConfig = field(
+        default_factory=lambda: TrainConfig(
+            steps=300_000,
+            lr=2e-4,
+            betas=(0.9, 0.99),
+            weight_decay=0.0,
+            schedule="multistep",
+            warmup_steps=2000,
+            milestones=(150_000, 250_000),
+            gamma=0.05,
+            log_every=100,
+            ckpt_every=5000,
+        )
+    )
 
 
 def _small(cls, profile: str, **extra):
     if profile == "smoke":
         train = TrainConfig(steps=40, lr=2e-3, schedule="cosine", warmup_steps=5, log_every=10)
-        return cls(width=32, depth=1, code_dim=16, codebook_size=32, window=16, batch_size=8, dropout=0.0,
-                   gumbel_temperature=0.0, train=train, **extra)  # fmt: skip
-    train = TrainConfig(steps=2000, lr=1e-3, schedule="cosine", warmup_steps=100, min_lr_ratio=0.05,
-                        grad_clip=1.0, log_every=50, ckpt_every=500)  # fmt: skip
-    return cls(width=128, depth=2, code_dim=64, codebook_size=256, window=64, batch_size=32, dropout=0.0,
-               gumbel_temperature=0.0, train=train, **extra)  # fmt: skip
+        return cls(
+            width=32,
+            depth=1,
+            code_dim=16,
+            codebook_size=32,
+            window=16,
+            batch_size=8,
+            dropout=0.0,
+            gumbel_temperature=0.0,
+            train=train,
+            **extra,
+        )
+    train = TrainConfig(
+        steps=2000,
+        lr=1e-3,
+        schedule="cosine",
+        warmup_steps=100,
+        min_lr_ratio=0.05,
+        grad_clip=1.0,
+        log_every=50,
+        ckpt_every=500,
+    )
+    return cls(
+        width=128,
+        depth=2,
+        code_dim=64,
+        codebook_size=256,
+        window=64,
+        batch_size=32,
+        dropout=0.0,
+        gumbel_temperature=0.0,
+        train=train,
+        **extra,
+    )
 
 
 def _with(config, overrides: dict):

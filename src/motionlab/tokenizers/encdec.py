@@ -45,8 +45,9 @@ class Resnet1D(nn.Sequential):
 class Encoder(nn.Module):
     """Motion features ``(B, T, D)`` → latent vectors ``(B, T/4, code_dim)``."""
 
-    def __init__(self, feature_dim: int, code_dim: int, width: int, depth: int, dilation_growth: int = 3,
-                 dropout: float = 0.0):  # fmt: skip
+    def __init__(
+        self, feature_dim: int, code_dim: int, width: int, depth: int, dilation_growth: int = 3, dropout: float = 0.0
+    ):
         super().__init__()
         layers: list[nn.Module] = [nn.Conv1d(feature_dim, width, 3, padding=1), nn.ReLU()]
         for _ in range(DOWN_STAGES):
@@ -64,8 +65,9 @@ class Encoder(nn.Module):
 class Decoder(nn.Module):
     """Latent vectors ``(B, N, code_dim)`` → motion features ``(B, 4N, D)``."""
 
-    def __init__(self, feature_dim: int, code_dim: int, width: int, depth: int, dilation_growth: int = 3,
-                 dropout: float = 0.0):  # fmt: skip
+    def __init__(
+        self, feature_dim: int, code_dim: int, width: int, depth: int, dilation_growth: int = 3, dropout: float = 0.0
+    ):
         super().__init__()
         layers: list[nn.Module] = [nn.Conv1d(code_dim, width, 3, padding=1), nn.ReLU()]
         for _ in range(DOWN_STAGES):

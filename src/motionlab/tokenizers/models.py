@@ -67,8 +67,9 @@ class VQVAE(ConvTokenizer):
         with seeded(config.seed):  # weights are a function of the config alone
             super().__init__(config)
             c = config
-            self.quantizer = QuantizerEMAReset(c.codebook_size, c.code_dim, c.ema_decay, c.reset_threshold,
-                                               c.gumbel_temperature, seed=c.seed)  # fmt: skip
+            self.quantizer = QuantizerEMAReset(
+                c.codebook_size, c.code_dim, c.ema_decay, c.reset_threshold, c.gumbel_temperature, seed=c.seed
+            )
 
     def forward(self, motion: torch.Tensor, generator: torch.Generator | None = None) -> TokenizerOutput:
         motion = self._check_motion(motion)
@@ -100,8 +101,16 @@ class RVQVAE(ConvTokenizer):
             super().__init__(config)
             self.num_layers = config.num_layers
             c = config
-            self.quantizer = ResidualVQ(c.num_layers, c.codebook_size, c.code_dim, c.quantize_dropout, c.ema_decay,
-                                        c.reset_threshold, c.gumbel_temperature, seed=c.seed)  # fmt: skip
+            self.quantizer = ResidualVQ(
+                c.num_layers,
+                c.codebook_size,
+                c.code_dim,
+                c.quantize_dropout,
+                c.ema_decay,
+                c.reset_threshold,
+                c.gumbel_temperature,
+                seed=c.seed,
+            )
 
     def _check_layers(self, num_layers: int | None, available: int) -> int:
         n = available if num_layers is None else num_layers

@@ -57,8 +57,18 @@ def tokenizer_trainer(
     if data.feature_dim != c.feature_dim:
         raise ValueError(f"train_clips have {data.feature_dim} features, the config expects {c.feature_dim}")
     val_fn = window_validation(model, val_clips) if val_clips is not None else None
-    return Trainer(model, tokenizer_loss_fn, data.batches(c.batch_size), c.train, val_fn=val_fn, workdir=workdir,
-                   device=device, desc=type(model).__name__, progress=progress, precision=precision)  # fmt: skip
+    return Trainer(
+        model,
+        tokenizer_loss_fn,
+        data.batches(c.batch_size),
+        c.train,
+        val_fn=val_fn,
+        workdir=workdir,
+        device=device,
+        desc=type(model).__name__,
+        progress=progress,
+        precision=precision,
+    )
 
 
 def train_tokenizer(
@@ -114,8 +124,9 @@ def train_or_load_tokenizer(
         val = val_clips() if callable(val_clips) else val_clips
         return train_tokenizer(model, clips, val, workdir=workdir, device=device, progress=progress)
 
-    return train_or_load(name or kind, config, build_tokenizer, train_fn, profile,
-                         extra={"data": data_key}, device=device)  # fmt: skip
+    return train_or_load(
+        name or kind, config, build_tokenizer, train_fn, profile, extra={"data": data_key}, device=device
+    )
 
 
 def load_tokenizer(
@@ -145,6 +156,12 @@ def tokenizer_for_dataset(
         raise ValueError(f"kind must be one of {sorted(KINDS)}, got {kind!r}")
     config = KINDS[kind](profile, feature_dim=dataset.kind.feature_dim, n_joints=dataset.skeleton.n_joints)
     return train_or_load_tokenizer(
-        kind, lambda: dataset.normalized("train"), profile, val_clips=lambda: dataset.normalized("val"),
-        config=config, data_key=dataset.key, device=device, progress=progress,
-    )  # fmt: skip
+        kind,
+        lambda: dataset.normalized("train"),
+        profile,
+        val_clips=lambda: dataset.normalized("val"),
+        config=config,
+        data_key=dataset.key,
+        device=device,
+        progress=progress,
+    )

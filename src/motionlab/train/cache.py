@@ -123,8 +123,10 @@ def check_may_train(what: str) -> None:
     if _probing:
         raise NotCached(f"{what} is not in the cache")
     if os.environ.get("MOTIONLAB_NO_TRAIN"):
-        raise NotCached(f"{what} is not in the cache and $MOTIONLAB_NO_TRAIN is set: train it first "
-                        "(`motionlab train book` trains every model the book's chapters load)")
+        raise NotCached(
+            f"{what} is not in the cache and $MOTIONLAB_NO_TRAIN is set: train it first "
+            "(`motionlab train book` trains every model the book's chapters load)"
+        )
 
 
 def config_dict(config: Any) -> dict[str, Any]:
@@ -141,8 +143,14 @@ def config_hash(config: Any, extra: dict[str, Any] | None = None) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:12]
 
 
-def artefact_dir(name: str, config: Any, profile: str | None = None, extra: dict[str, Any] | None = None,
-                 device: str | torch.device | None = None, precision: str | None = None) -> Path:  # fmt: skip
+def artefact_dir(
+    name: str,
+    config: Any,
+    profile: str | None = None,
+    extra: dict[str, Any] | None = None,
+    device: str | torch.device | None = None,
+    precision: str | None = None,
+) -> Path:
     """Where the finished model for this (name, profile, config, extra, precision) lives (it may not exist yet).
 
     ``precision`` is what the model trains in: the run's (:mod:`motionlab.precision`, resolved for ``device``)
@@ -153,8 +161,12 @@ def artefact_dir(name: str, config: Any, profile: str | None = None, extra: dict
     return cache_path("models", name, get_profile(profile), artefact_key(config, extra, device, precision))
 
 
-def artefact_key(config: Any, extra: dict[str, Any] | None = None, device: str | torch.device | None = None,
-                 precision: str | None = None) -> str:  # fmt: skip
+def artefact_key(
+    config: Any,
+    extra: dict[str, Any] | None = None,
+    device: str | torch.device | None = None,
+    precision: str | None = None,
+) -> str:
     """The folder name of a trained model: :func:`config_hash` of its config, ``extra`` and its precision."""
     return config_hash(config, _keyed(extra, device, precision))
 
@@ -181,8 +193,14 @@ def file_sha256(path: str | os.PathLike) -> str:
     return digest.hexdigest()
 
 
-def is_trained(name: str, config: Any, profile: str | None = None, extra: dict[str, Any] | None = None,
-               device: str | torch.device | None = None, precision: str | None = None) -> bool:  # fmt: skip
+def is_trained(
+    name: str,
+    config: Any,
+    profile: str | None = None,
+    extra: dict[str, Any] | None = None,
+    device: str | torch.device | None = None,
+    precision: str | None = None,
+) -> bool:
     return (artefact_dir(name, config, profile, extra, device, precision) / "model.safetensors").is_file()
 
 
@@ -210,8 +228,11 @@ def load_trained(
 
 
 def _damaged(folder: Path, name: str, what: str) -> DamagedArtefactError:
-    return DamagedArtefactError(folder, f"the cached {name!r} model is damaged: {what}; the next command that "
-                                        f"trains it moves {folder.name} aside and trains it again")  # fmt: skip
+    return DamagedArtefactError(
+        folder,
+        f"the cached {name!r} model is damaged: {what}; the next command that "
+        f"trains it moves {folder.name} aside and trains it again",
+    )
 
 
 def _load_verified(model: nn.Module, folder: Path, name: str, wanted: dict[str, Any]) -> None:
@@ -264,8 +285,14 @@ def move_aside(folder: Path) -> Path:
     return target
 
 
-def load_result(name: str, config: Any, profile: str | None = None, extra: dict[str, Any] | None = None,
-                device: str | torch.device | None = None, precision: str | None = None) -> Any:  # fmt: skip
+def load_result(
+    name: str,
+    config: Any,
+    profile: str | None = None,
+    extra: dict[str, Any] | None = None,
+    device: str | torch.device | None = None,
+    precision: str | None = None,
+) -> Any:
     """What ``train_fn`` returned when the model was trained (e.g. its loss history)."""
     path = artefact_dir(name, config, profile, extra, device, precision) / "result.json"
     if not path.is_file():
@@ -303,8 +330,10 @@ def train_or_load(
         except DamagedArtefactError as err:
             if current_context().is_main:  # under torchrun one rank moves it; all of them retrain
                 moved = move_aside(final) if final.exists() else final
-                print(f"warning: {str(err).split(';')[0]}; moved it to {moved.name} and training it again",
-                      file=sys.stderr)  # fmt: skip
+                print(
+                    f"warning: {str(err).split(';')[0]}; moved it to {moved.name} and training it again",
+                    file=sys.stderr,
+                )
             barrier(current_context())
     check_may_train(f"model {name!r} ({get_profile(profile)}, {final.name})")
     work = final.with_name(final.name + ".work")
@@ -323,9 +352,15 @@ def _publish(final: Path, work: Path, model: nn.Module, result: Any, name: str, 
     tmp.mkdir(parents=True)
     try:
         save_weights(model.state_dict(), tmp / "model.safetensors")
-        info = {"name": name, "profile": get_profile(profile), "hash": final.name, "type": type(config).__name__,
-                "config": config_dict(config), "extra": extra or {},
-                "sha256": file_sha256(tmp / "model.safetensors")}  # fmt: skip
+        info = {
+            "name": name,
+            "profile": get_profile(profile),
+            "hash": final.name,
+            "type": type(config).__name__,
+            "config": config_dict(config),
+            "extra": extra or {},
+            "sha256": file_sha256(tmp / "model.safetensors"),
+        }
         (tmp / "config.json").write_text(json.dumps(info, indent=1, default=str))
         (tmp / "result.json").write_text(json.dumps(result, indent=1, default=str))
         if final.exists():  # retrain=True over an old artefact

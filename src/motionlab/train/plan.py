@@ -97,8 +97,10 @@ def _describe(todo: Sequence[Job], workers: int) -> str:
     from .device import get_device
 
     precision, why = explain_precision(None, get_device(None))
-    return (f"to train first ({len(todo)} models in {precision}, {why}; {format_minutes(total)} of CPU on a 2-core "
-            f"reference machine, {when}): {names}")
+    return (
+        f"to train first ({len(todo)} models in {precision}, {why}; {format_minutes(total)} of CPU on a 2-core "
+        f"reference machine, {when}): {names}"
+    )
 
 
 def expected_wall_seconds(jobs: Sequence[Job], workers: int) -> float:
@@ -187,8 +189,13 @@ class _Scheduler:
         self.t0 = time.monotonic()
         context = multiprocessing.get_context("spawn")  # no inherited torch threads or locks
         self.queue = context.Queue()
-        self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=_init_worker,
-                                        initargs=(self.queue, threads), max_tasks_per_child=1)  # fmt: skip
+        self.pool = ProcessPoolExecutor(
+            max_workers=workers,
+            mp_context=context,
+            initializer=_init_worker,
+            initargs=(self.queue, threads),
+            max_tasks_per_child=1,
+        )
 
     def say(self, text: str) -> None:
         print(f"{elapsed_stamp(time.monotonic() - self.t0)} {text}", file=self.out, flush=True)
@@ -279,8 +286,10 @@ def _progress_text(state: _Running, now: float) -> str:
     elapsed = now - state.started
     if state.total and state.step:
         left = elapsed / state.step * (state.total - state.step)
-        return (f"{state.job.name}: step {state.step:,}/{state.total:,}, {format_minutes(elapsed)} elapsed, "
-                f"~{format_minutes(left)} left")
+        return (
+            f"{state.job.name}: step {state.step:,}/{state.total:,}, {format_minutes(elapsed)} elapsed, "
+            f"~{format_minutes(left)} left"
+        )
     left = max(state.job.estimate_s - elapsed, 0.0)
     return f"{state.job.name}: preparing, {format_minutes(elapsed)} elapsed, ~{format_minutes(left)} left (estimate)"
 
@@ -292,13 +301,23 @@ def results_table(results: Sequence[JobResult]) -> str:
         timed = r.status in ("trained", "failed")
         wall = format_minutes(r.seconds) if timed else "-"
         cpu = format_minutes(r.cpu_seconds) if r.status == "trained" else "-"
-        lines.append(f"{r.name:<34} {r.status:<11} {wall:>9} {cpu:>9} {format_minutes(r.estimate_s):>9}"
-                     + (f"  {r.error}" if r.error else ""))
+        lines.append(
+            f"{r.name:<34} {r.status:<11} {wall:>9} {cpu:>9} {format_minutes(r.estimate_s):>9}"
+            + (f"  {r.error}" if r.error else "")
+        )
     trained = [r for r in results if r.status == "trained"]
     if trained:
         lines.append(f"{len(trained)} trained, {format_minutes(sum(r.cpu_seconds for r in trained))} of CPU in all")
     return "\n".join(lines)
 
 
-__all__ = ["Job", "JobResult", "check_plan", "expected_wall_seconds", "missing_jobs", "plan_line", "results_table",
-           "run_plan"]  # fmt: skip
+__all__ = [
+    "Job",
+    "JobResult",
+    "check_plan",
+    "expected_wall_seconds",
+    "missing_jobs",
+    "plan_line",
+    "results_table",
+    "run_plan",
+]

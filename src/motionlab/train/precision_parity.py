@@ -67,8 +67,11 @@ def load_runs(folder: str | Path) -> dict[str, dict]:
 def training_times(runs: dict[str, dict]) -> list[tuple[str, float, float, float]]:
     """``(model, fp32 CPU s, bf16 CPU s, fp32 / bf16)`` for every model both runs trained."""
     fp32, bf16 = runs["fp32"]["training"], runs["bf16"]["training"]
-    return [(m, fp32[m]["cpu_seconds"], bf16[m]["cpu_seconds"], fp32[m]["cpu_seconds"] / bf16[m]["cpu_seconds"])
-            for m in fp32 if m in bf16]  # fmt: skip
+    return [
+        (m, fp32[m]["cpu_seconds"], bf16[m]["cpu_seconds"], fp32[m]["cpu_seconds"] / bf16[m]["cpu_seconds"])
+        for m in fp32
+        if m in bf16
+    ]
 
 
 def _estimate(record: dict, task: str, row_part: str, metric: str) -> tuple[float, float | None]:
@@ -83,13 +86,20 @@ def _estimate(record: dict, task: str, row_part: str, metric: str) -> tuple[floa
 
 def quality_rows(runs: dict[str, dict]) -> list[Comparison]:
     """Every quality number of :data:`QUALITY` in both runs, plus the evaluator's retrieval when it was measured."""
-    out = [Comparison(what, _estimate(runs["fp32"], task, row, metric), _estimate(runs["bf16"], task, row, metric))
-           for task, row, metric, what in QUALITY]  # fmt: skip
+    out = [
+        Comparison(what, _estimate(runs["fp32"], task, row, metric), _estimate(runs["bf16"], task, row, metric))
+        for task, row, metric, what in QUALITY
+    ]
     if all("evaluator_parity" in runs[p] for p in PRECISIONS):
         for key, label in (("top1", "top 1"), ("top3", "top 3")):
             values = [float(runs[p]["evaluator_parity"]["validation"][f"val_{key}"]) for p in PRECISIONS]
-            out.append(Comparison(f"evaluator trained in this precision: validation retrieval {label}",
-                                  (values[0], None), (values[1], None)))  # fmt: skip
+            out.append(
+                Comparison(
+                    f"evaluator trained in this precision: validation retrieval {label}",
+                    (values[0], None),
+                    (values[1], None),
+                )
+            )
     return out
 
 
@@ -100,10 +110,15 @@ def markdown_tables(runs: dict[str, dict]) -> str:
         mean, half = value
         return f"{mean:.3f}" if half is None else f"{mean:.3f} ± {half:.3f}"
 
-    lines = [f"Measured on {runs['fp32']['cpu']} ({runs['fp32']['started']}), profile {runs['fp32']['profile']}, "
-             "both runs side by side with one torch thread each.", "",
-             "| model | fp32 CPU s | bf16 CPU s | speed-up |", "|---|---:|---:|---:|"]  # fmt: skip
+    lines = [
+        f"Measured on {runs['fp32']['cpu']} ({runs['fp32']['started']}), profile {runs['fp32']['profile']}, "
+        "both runs side by side with one torch thread each.",
+        "",
+        "| model | fp32 CPU s | bf16 CPU s | speed-up |",
+        "|---|---:|---:|---:|",
+    ]
     lines += [f"| {m} | {a:.0f} | {b:.0f} | {r:.2f}× |" for m, a, b, r in training_times(runs)]
+
     def verdict(c: Comparison) -> str:
         if c.within_intervals is None:
             return f"no interval; bf16 {c.relative_difference:+.1%}"

@@ -91,9 +91,14 @@ class TrainConfig:
 
     def lr_at(self, step: int) -> float:
         return self.lr * lr_multiplier(
-            step, schedule=self.schedule, warmup_steps=self.warmup_steps, total_steps=self.steps,
-            min_lr_ratio=self.min_lr_ratio, milestones=self.milestones, gamma=self.gamma,
-        )  # fmt: skip
+            step,
+            schedule=self.schedule,
+            warmup_steps=self.warmup_steps,
+            total_steps=self.steps,
+            min_lr_ratio=self.min_lr_ratio,
+            milestones=self.milestones,
+            gamma=self.gamma,
+        )
 
 
 class Trainer:
@@ -128,8 +133,9 @@ class Trainer:
         params = [p for p in self.model.parameters() if p.requires_grad]
         # fused: one kernel for the whole update (measured faster); fp32 keeps the unfused update, bit for bit as before
         fused = True if self.precision == "bf16" and self.device.type in ("cpu", "cuda") else None
-        self.optimizer = torch.optim.AdamW(params, lr=config.lr, betas=config.betas, weight_decay=config.weight_decay,
-                                           fused=fused)  # fmt: skip
+        self.optimizer = torch.optim.AdamW(
+            params, lr=config.lr, betas=config.betas, weight_decay=config.weight_decay, fused=fused
+        )
         self.ema = EMA(self.model, config.ema_decay) if config.ema_decay else None
         # Two streams: data order stays the same when a model changes how much noise it draws.
         self.data_generator = torch.Generator().manual_seed(config.seed)
@@ -178,8 +184,13 @@ class Trainer:
         """Train up to step ``until`` (default: ``config.steps``); returns the history of logged averages."""
         cfg = self.config
         stop = cfg.steps if until is None else min(until, cfg.steps)
-        bar = tqdm(total=cfg.steps, initial=self.step, desc=self.desc, disable=not (self.progress and bars_enabled()),
-                   leave=False)
+        bar = tqdm(
+            total=cfg.steps,
+            initial=self.step,
+            desc=self.desc,
+            disable=not (self.progress and bars_enabled()),
+            leave=False,
+        )
         try:
             while self.step < stop:
                 logged = self.train_step()

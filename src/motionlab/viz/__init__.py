@@ -7,8 +7,12 @@ needs) must not start matplotlib, which costs about a second.
 from importlib import import_module
 from typing import Any
 
-_WHERE = {"plot_feature_layout": "plots", "plot_trajectories": "plots", "animate_motions": "skeleton",
-          "plot_pose": "skeleton"}  # fmt: skip
+_WHERE = {
+    "plot_feature_layout": "plots",
+    "plot_trajectories": "plots",
+    "animate_motions": "skeleton",
+    "plot_pose": "skeleton",
+}
 
 __all__ = ["animate_motions", "plot_feature_layout", "plot_pose", "plot_trajectories"]
 

@@ -11,9 +11,14 @@ from ..metrics.jerk import finite_difference_jerk
 from ..representation import Skeleton, feature_slices, get_skeleton
 
 GROUP_COLORS = {
-    "root_rot_vel": "#8c564b", "root_lin_vel": "#e377c2", "root_height": "#7f7f7f", "ric": "#1f77b4",
-    "rot": "#2ca02c", "local_vel": "#ff7f0e", "foot_contact": "#d62728",
-}  # fmt: skip
+    "root_rot_vel": "#8c564b",
+    "root_lin_vel": "#e377c2",
+    "root_height": "#7f7f7f",
+    "ric": "#1f77b4",
+    "rot": "#2ca02c",
+    "local_vel": "#ff7f0e",
+    "foot_contact": "#d62728",
+}
 
 
 def plot_feature_layout(skeleton: str | Skeleton = "t2m", ax=None):
@@ -24,11 +29,25 @@ def plot_feature_layout(skeleton: str | Skeleton = "t2m", ax=None):
     for name, sl in feature_slices(sk).items():
         ax.barh(0, sl.stop - sl.start, left=sl.start, color=GROUP_COLORS[name], edgecolor="white")
         label = f"{name}\n{sl.start}:{sl.stop}"
-        ax.text((sl.start + sl.stop) / 2, 0, label if sl.stop - sl.start > 12 else "", ha="center",
-                va="center", fontsize=7, color="white")  # fmt: skip
+        ax.text(
+            (sl.start + sl.stop) / 2,
+            0,
+            label if sl.stop - sl.start > 12 else "",
+            ha="center",
+            va="center",
+            fontsize=7,
+            color="white",
+        )
     small = [n for n, sl in feature_slices(sk).items() if sl.stop - sl.start <= 12]
-    ax.legend(handles=[plt.Rectangle((0, 0), 1, 1, color=GROUP_COLORS[n]) for n in small], labels=small,
-              fontsize=7, ncol=len(small), loc="upper center", bbox_to_anchor=(0.5, -0.7), frameon=False)  # fmt: skip
+    ax.legend(
+        handles=[plt.Rectangle((0, 0), 1, 1, color=GROUP_COLORS[n]) for n in small],
+        labels=small,
+        fontsize=7,
+        ncol=len(small),
+        loc="upper center",
+        bbox_to_anchor=(0.5, -0.7),
+        frameon=False,
+    )
     ax.set_xlim(0, sk.feature_dim)
     ax.set_yticks([])
     ax.set_xlabel(f"feature index ({sk.name}: {sk.feature_dim} dims)")

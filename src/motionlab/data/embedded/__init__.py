@@ -8,6 +8,14 @@ from .generator import FAMILIES, MAX_FRAMES, MIN_FRAMES, VERSION, EmbeddedClip, 
 from .writer import EMBEDDED_SIZES, embedded_path, ensure_embedded, write_embedded_dataset
 
 __all__ = [
-    "EMBEDDED_SIZES", "FAMILIES", "MAX_FRAMES", "MIN_FRAMES", "VERSION", "EmbeddedClip", "embedded_path",
-    "ensure_embedded", "generate_clip", "write_embedded_dataset",
-]  # fmt: skip
+    "EMBEDDED_SIZES",
+    "FAMILIES",
+    "MAX_FRAMES",
+    "MIN_FRAMES",
+    "VERSION",
+    "EmbeddedClip",
+    "embedded_path",
+    "ensure_embedded",
+    "generate_clip",
+    "write_embedded_dataset",
+]

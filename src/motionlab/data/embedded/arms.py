@@ -25,7 +25,7 @@ from .body import (
     seconds,
     times_phrase,
     to_side,
-)  # fmt: skip
+)
 from .rig import Plan, Segment
 
 _ARMS = RIGHT_ARM  # the bones a right-sided movement drives
@@ -56,8 +56,12 @@ def wave(rng, max_frames, *, side=None, reps=None, height=None) -> Segment:
     angles = to_side(angles, side, _ARMS)
     hand, arm = _hand(side), _arm(side)
     up = "above the head" if height == "overhead" else "at shoulder height"
-    phrases = [f"waves {hand}", f"waves with {hand} {times_phrase(reps)}", f"raises {arm} and waves",
-               f"waves hello with {hand} {up}"]  # fmt: skip
+    phrases = [
+        f"waves {hand}",
+        f"waves with {hand} {times_phrase(reps)}",
+        f"raises {arm} and waves",
+        f"waves hello with {hand} {up}",
+    ]
     params = {"side": side, "reps": reps, "height": height, "freq_hz": round(freq, 3)}
     return Segment(Plan.still(angles), phrases, params)
 
@@ -87,8 +91,12 @@ def circle_arm(rng, max_frames, *, side=None, direction=None, size=None, reps=No
     angles = to_side(angles, side, _ARMS)
     arm = _arm(side)
     kind = "big circles" if size == "big" else "small circles"
-    phrases = [f"moves {arm} in {kind}", f"rotates {arm} {direction} {times_phrase(reps)}",
-               f"makes {kind} with {arm}", f"swings {arm} around in {direction} circles"]  # fmt: skip
+    phrases = [
+        f"moves {arm} in {kind}",
+        f"rotates {arm} {direction} {times_phrase(reps)}",
+        f"makes {kind} with {arm}",
+        f"swings {arm} around in {direction} circles",
+    ]
     params = {"side": side, "direction": direction, "size": size, "reps": reps, "freq_hz": round(freq, 3)}
     return Segment(Plan.still(angles), phrases, params)
 
@@ -103,9 +111,11 @@ def raise_arms(rng, max_frames, *, side=None, direction=None, reps=None) -> Segm
     most = max(1, min(3, int((max_frames / FPS - 0.2) / period)))
     reps = count(rng, "reps", reps, 1, most)
     n = min(frames(reps * period + 0.2), max_frames)
-    up = {"forward": pose(shoulder_r=(-90, 0, 5), elbow_r=(-5, 0, 0)),
-          "sideways": pose(shoulder_r=(0, 0, -90), elbow_r=(-5, 0, 0)),
-          "overhead": pose(shoulder_r=(-170, 0, 5), elbow_r=(-5, 0, 0))}[direction]  # fmt: skip
+    up = {
+        "forward": pose(shoulder_r=(-90, 0, 5), elbow_r=(-5, 0, 0)),
+        "sideways": pose(shoulder_r=(0, 0, -90), elbow_r=(-5, 0, 0)),
+        "overhead": pose(shoulder_r=(-170, 0, 5), elbow_r=(-5, 0, 0)),
+    }[direction]
     up = up * rng.uniform(0.9, 1.05)
     times, keys = [0.0], [pose()]
     for k in range(reps):
@@ -116,8 +126,12 @@ def raise_arms(rng, max_frames, *, side=None, direction=None, reps=None) -> Segm
     arm = _arm(side)
     where = {"forward": "forward", "sideways": "out to the side", "overhead": "above the head"}[direction]
     again = "" if reps == 1 else f" {times_phrase(reps)}"
-    phrases = [f"raises {arm} {where}{again}", f"lifts {arm} {where} and lowers {'them' if side == 'both' else 'it'}",
-               f"holds {arm} {where} for a moment", f"puts {arm} up {where}{again}"]  # fmt: skip
+    phrases = [
+        f"raises {arm} {where}{again}",
+        f"lifts {arm} {where} and lowers {'them' if side == 'both' else 'it'}",
+        f"holds {arm} {where} for a moment",
+        f"puts {arm} up {where}{again}",
+    ]
     params = {"side": side, "direction": direction, "reps": reps, "hold_s": round(hold, 3), "move_s": round(move, 3)}
     return Segment(Plan.still(angles), phrases, params)
 
@@ -137,8 +151,12 @@ def clap(rng, max_frames, *, reps=None, speed=None) -> Segment:
     angles[:, RIGHT_SHOULDER, 2] += np.deg2rad(32.0) * closing * envelope(n, frames(0.5), frames(0.6))
     angles = to_side(angles, "both", _ARMS)
     how = "quickly" if speed == "fast" else "slowly"
-    phrases = [f"claps {times_phrase(reps)}", f"claps the hands {how}", "claps the hands in front of the chest",
-               f"applauds {how}"]  # fmt: skip
+    phrases = [
+        f"claps {times_phrase(reps)}",
+        f"claps the hands {how}",
+        "claps the hands in front of the chest",
+        f"applauds {how}",
+    ]
     params = {"reps": reps, "speed": speed, "freq_hz": round(freq, 3)}
     return Segment(Plan.still(angles), phrases, params)
 
@@ -153,9 +171,9 @@ def punch(rng, max_frames, *, side=None, reps=None) -> Segment:
     reps = count(rng, "reps", reps, 1, most)
     n = min(frames(reps * period + 1.4), max_frames)
     guard_r = pose(shoulder_r=(-25, 0, 12), elbow_r=(-130, 0, 0))
-    guard = to_side(guard_r[None], "both", _ARMS)[0] + pose(knee_r=(10, 0, 0), knee_l=(10, 0, 0),
-                                                            hip_r=(-6, 0, 0), hip_l=(-6, 0, 0), ankle_r=(-4, 0, 0),
-                                                            ankle_l=(-4, 0, 0))  # fmt: skip
+    guard = to_side(guard_r[None], "both", _ARMS)[0] + pose(
+        knee_r=(10, 0, 0), knee_l=(10, 0, 0), hip_r=(-6, 0, 0), hip_l=(-6, 0, 0), ankle_r=(-4, 0, 0), ankle_l=(-4, 0, 0)
+    )
     hit_r = pose(shoulder_r=(-85, 0, 8), elbow_r=(-5, 0, 0), spine_up=(0, 18, 0), spine_mid=(0, 8, 0))
     times, keys = [0.0, 0.6], [pose(), guard]
     for k in range(reps):
@@ -172,8 +190,12 @@ def punch(rng, max_frames, *, side=None, reps=None) -> Segment:
     keys += [pose()]
     angles = keyframes(n, times, keys)
     fists = "both fists" if side == "alternating" else f"the {side} fist"
-    phrases = [f"punches with {fists} {times_phrase(reps)}", f"throws punches with {fists}",
-               f"jabs forward with {fists}", f"boxes, punching with {fists}"]  # fmt: skip
+    phrases = [
+        f"punches with {fists} {times_phrase(reps)}",
+        f"throws punches with {fists}",
+        f"jabs forward with {fists}",
+        f"boxes, punching with {fists}",
+    ]
     if side == "alternating":
         phrases.append("punches alternating the left and right hands")
     params = {"side": side, "reps": reps, "strike_s": round(strike, 3), "retract_s": round(back, 3)}

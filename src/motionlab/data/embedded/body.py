@@ -44,11 +44,25 @@ LEFT_SHOULDER, RIGHT_SHOULDER = 18, 19  # upper arms
 LEFT_ELBOW, RIGHT_ELBOW = 20, 21  # forearms
 
 BONES = {
-    "pelvis": PELVIS, "spine_low": SPINE_LOW, "spine_mid": SPINE_MID, "spine_up": SPINE_UP, "neck": NECK,
-    "head": HEAD, "hip_l": LEFT_HIP, "hip_r": RIGHT_HIP, "knee_l": LEFT_KNEE, "knee_r": RIGHT_KNEE,
-    "ankle_l": LEFT_ANKLE, "ankle_r": RIGHT_ANKLE, "collar_l": LEFT_COLLAR, "collar_r": RIGHT_COLLAR,
-    "shoulder_l": LEFT_SHOULDER, "shoulder_r": RIGHT_SHOULDER, "elbow_l": LEFT_ELBOW, "elbow_r": RIGHT_ELBOW,
-}  # fmt: skip
+    "pelvis": PELVIS,
+    "spine_low": SPINE_LOW,
+    "spine_mid": SPINE_MID,
+    "spine_up": SPINE_UP,
+    "neck": NECK,
+    "head": HEAD,
+    "hip_l": LEFT_HIP,
+    "hip_r": RIGHT_HIP,
+    "knee_l": LEFT_KNEE,
+    "knee_r": RIGHT_KNEE,
+    "ankle_l": LEFT_ANKLE,
+    "ankle_r": RIGHT_ANKLE,
+    "collar_l": LEFT_COLLAR,
+    "collar_r": RIGHT_COLLAR,
+    "shoulder_l": LEFT_SHOULDER,
+    "shoulder_r": RIGHT_SHOULDER,
+    "elbow_l": LEFT_ELBOW,
+    "elbow_r": RIGHT_ELBOW,
+}
 
 # Joint pairs swapped by a left/right mirror (x -> -x).
 MIRROR_PAIRS = ((1, 2), (4, 5), (7, 8), (10, 11), (13, 14), (16, 17), (18, 19), (20, 21))
@@ -184,6 +198,14 @@ def count(rng: np.random.Generator, name: str, value, low: int, high: int) -> in
 
 def times_phrase(n: int) -> str:
     """ "once", "twice", "three times", ... for repetition counts in captions."""
-    words = {1: "once", 2: "twice", 3: "three times", 4: "four times", 5: "five times", 6: "six times",
-             7: "seven times", 8: "eight times"}  # fmt: skip
+    words = {
+        1: "once",
+        2: "twice",
+        3: "three times",
+        4: "four times",
+        5: "five times",
+        6: "six times",
+        7: "seven times",
+        8: "eight times",
+    }
     return words.get(n, "several times")

@@ -179,9 +179,12 @@ class Take:
 
 
 def make_take(
-    rng: np.random.Generator | None, segments: list[Segment], actions: Plan, idle: tuple[int, int],
+    rng: np.random.Generator | None,
+    segments: list[Segment],
+    actions: Plan,
+    idle: tuple[int, int],
     length: tuple[int, int],
-) -> Take:  # fmt: skip
+) -> Take:
     """The take around ``actions`` (the segments' plans, chained) and the window a clip shows of it.
 
     Each end is cut with probability :data:`CUT_SHARE` (see there for how); an end that is not cut, and every
@@ -264,8 +267,9 @@ def generate_clip(
     # Only the window is varied and realised: the rig places the feet, the floor and the root frame by frame, so
     # the frames of the take outside it would change next to nothing (and cost time).
     window = take.window
-    window = Plan(_vary(rng, window.angles, fine_rng if fine else None), window.yaw, window.lift, window.airborne,
-                  window.coast)  # fmt: skip
+    window = Plan(
+        _vary(rng, window.angles, fine_rng if fine else None), window.yaw, window.lift, window.airborne, window.coast
+    )
     joints = realise(window)
     lead_in, lead_out = take.idle
     stationary = all(s.stationary for s in segments)
@@ -274,6 +278,7 @@ def generate_clip(
         params = dict(segments[0].params)
     else:
         params = {"actions": [{"family": n, **s.params} for n, s in zip(names, segments)]}
-    params.update(lead_in_s=round(lead_in / FPS, 2), lead_out_s=round(lead_out / FPS, 2), starts=take.ends[0],
-                  ends=take.ends[1])  # fmt: skip
+    params.update(
+        lead_in_s=round(lead_in / FPS, 2), lead_out_s=round(lead_out / FPS, 2), starts=take.ends[0], ends=take.ends[1]
+    )
     return EmbeddedClip(joints, captions, names[0], params, names)

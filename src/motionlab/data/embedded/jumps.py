@@ -41,16 +41,50 @@ def _jump_keys(t0: float, tf: float, rng: np.random.Generator, forward: bool):
     crouch = rng.uniform(0.8, 1.2)
     lean = 15.0 if forward else 0.0
     stand = pose()
-    down = pose(hip_r=(-50 * crouch - lean, 0, 0), hip_l=(-50 * crouch - lean, 0, 0), knee_r=(85 * crouch, 0, 0),
-                knee_l=(85 * crouch, 0, 0), ankle_r=(-35 * crouch + lean, 0, 0), ankle_l=(-35 * crouch + lean, 0, 0),
-                spine_low=(20 + lean, 0, 0), spine_mid=(10, 0, 0), shoulder_r=(40, 0, 0), shoulder_l=(40, 0, 0),
-                elbow_r=(-20, 0, 0), elbow_l=(-20, 0, 0))  # fmt: skip
-    push = pose(ankle_r=(30, 0, 0), ankle_l=(30, 0, 0), shoulder_r=(-120, 0, 0), shoulder_l=(-120, 0, 0),
-                spine_low=(lean / 2, 0, 0), elbow_r=(-10, 0, 0), elbow_l=(-10, 0, 0))  # fmt: skip
-    tuck = pose(hip_r=(-35, 0, 0), hip_l=(-35, 0, 0), knee_r=(50, 0, 0), knee_l=(50, 0, 0), ankle_r=(10, 0, 0),
-                ankle_l=(10, 0, 0), shoulder_r=(-90, 0, 0), shoulder_l=(-90, 0, 0), spine_low=(10, 0, 0))  # fmt: skip
-    land = pose(hip_r=(-15, 0, 0), hip_l=(-15, 0, 0), knee_r=(20, 0, 0), knee_l=(20, 0, 0), ankle_r=(5, 0, 0),
-                ankle_l=(5, 0, 0), shoulder_r=(-60, 0, 0), shoulder_l=(-60, 0, 0))  # fmt: skip
+    down = pose(
+        hip_r=(-50 * crouch - lean, 0, 0),
+        hip_l=(-50 * crouch - lean, 0, 0),
+        knee_r=(85 * crouch, 0, 0),
+        knee_l=(85 * crouch, 0, 0),
+        ankle_r=(-35 * crouch + lean, 0, 0),
+        ankle_l=(-35 * crouch + lean, 0, 0),
+        spine_low=(20 + lean, 0, 0),
+        spine_mid=(10, 0, 0),
+        shoulder_r=(40, 0, 0),
+        shoulder_l=(40, 0, 0),
+        elbow_r=(-20, 0, 0),
+        elbow_l=(-20, 0, 0),
+    )
+    push = pose(
+        ankle_r=(30, 0, 0),
+        ankle_l=(30, 0, 0),
+        shoulder_r=(-120, 0, 0),
+        shoulder_l=(-120, 0, 0),
+        spine_low=(lean / 2, 0, 0),
+        elbow_r=(-10, 0, 0),
+        elbow_l=(-10, 0, 0),
+    )
+    tuck = pose(
+        hip_r=(-35, 0, 0),
+        hip_l=(-35, 0, 0),
+        knee_r=(50, 0, 0),
+        knee_l=(50, 0, 0),
+        ankle_r=(10, 0, 0),
+        ankle_l=(10, 0, 0),
+        shoulder_r=(-90, 0, 0),
+        shoulder_l=(-90, 0, 0),
+        spine_low=(10, 0, 0),
+    )
+    land = pose(
+        hip_r=(-15, 0, 0),
+        hip_l=(-15, 0, 0),
+        knee_r=(20, 0, 0),
+        knee_l=(20, 0, 0),
+        ankle_r=(5, 0, 0),
+        ankle_l=(5, 0, 0),
+        shoulder_r=(-60, 0, 0),
+        shoulder_l=(-60, 0, 0),
+    )
     absorb = 0.8 * down + 0.2 * pose(shoulder_r=(-40, 0, 0), shoulder_l=(-40, 0, 0))
     times = [t0 - 0.65, t0 - 0.2, t0, t0 + tf / 2, t0 + tf, t0 + tf + 0.25, t0 + tf + 0.75]
     return times, [stand, down, push, tuck, land, absorb, stand]
@@ -84,8 +118,12 @@ def jump(rng, max_frames, *, mode=None, reps=None, height=None, distance=None) -
     coast[air == 0] = np.nan  # grounded frames follow the feet
     times_txt = times_phrase(reps)
     if mode == "forward":
-        phrases = [f"jumps forward {times_txt}", f"leaps forward {times_txt}", f"hops forward {times_txt}",
-                   "jumps ahead" if reps == 1 else f"jumps ahead {times_txt}"]  # fmt: skip
+        phrases = [
+            f"jumps forward {times_txt}",
+            f"leaps forward {times_txt}",
+            f"hops forward {times_txt}",
+            "jumps ahead" if reps == 1 else f"jumps ahead {times_txt}",
+        ]
     else:
         phrases = [f"jumps up and down {times_txt}", f"jumps in place {times_txt}", f"jumps straight up {times_txt}"]
     params = {"mode": mode, "reps": reps, "height_m": round(height, 3), "distance_m": round(distance, 3)}
@@ -102,10 +140,24 @@ def jumping_jacks(rng, max_frames, *, reps=None) -> Segment:
     n = min(frames(reps * period + 0.6), max_frames)
     spread = rng.uniform(10.0, 15.0)
     closed = pose()
-    open_ = pose(hip_r=(0, 0, -spread), hip_l=(0, 0, spread), ankle_r=(5, 0, 0), ankle_l=(5, 0, 0),
-                 shoulder_r=(0, 0, -160), shoulder_l=(0, 0, 160), elbow_r=(-15, 0, 0), elbow_l=(-15, 0, 0))  # fmt: skip
-    dip = pose(hip_r=(-12, 0, 0), hip_l=(-12, 0, 0), knee_r=(22, 0, 0), knee_l=(22, 0, 0), ankle_r=(-10, 0, 0),
-               ankle_l=(-10, 0, 0))  # fmt: skip
+    open_ = pose(
+        hip_r=(0, 0, -spread),
+        hip_l=(0, 0, spread),
+        ankle_r=(5, 0, 0),
+        ankle_l=(5, 0, 0),
+        shoulder_r=(0, 0, -160),
+        shoulder_l=(0, 0, 160),
+        elbow_r=(-15, 0, 0),
+        elbow_l=(-15, 0, 0),
+    )
+    dip = pose(
+        hip_r=(-12, 0, 0),
+        hip_l=(-12, 0, 0),
+        knee_r=(22, 0, 0),
+        knee_l=(22, 0, 0),
+        ankle_r=(-10, 0, 0),
+        ankle_l=(-10, 0, 0),
+    )
     takeoffs, times, keys = [], [0.0], [closed]
     for k in range(2 * reps):
         t0 = 0.3 + k * period / 2
@@ -118,9 +170,12 @@ def jumping_jacks(rng, max_frames, *, reps=None) -> Segment:
     angles = keyframes(n, times, keys)
     lift, air = ballistic(n, takeoffs, hop)
     coast = np.where(air[:, None] > 0, 0.0, np.nan) * np.ones((n, 3))
-    phrases = [f"does {_NUMBERS[reps]} jumping jacks",
-               "does jumping jacks", f"performs jumping jacks {times_phrase(reps)}",
-               "jumps while spreading the legs and raising the arms above the head"]  # fmt: skip
+    phrases = [
+        f"does {_NUMBERS[reps]} jumping jacks",
+        "does jumping jacks",
+        f"performs jumping jacks {times_phrase(reps)}",
+        "jumps while spreading the legs and raising the arms above the head",
+    ]
     params = {"reps": reps, "hop_m": round(hop, 3), "period_s": round(period, 3), "spread_deg": round(spread, 1)}
     return Segment(Plan(angles, np.zeros(n), lift, air, coast), phrases, params, stationary=False)
 

@@ -38,7 +38,7 @@ from .body import (
     mirror,
     pick,
     times_phrase,
-)  # fmt: skip
+)
 from .rig import Plan, Segment
 
 SPEEDS = ("slow", "normal", "fast")
@@ -129,8 +129,11 @@ def walk(rng, max_frames, *, direction=None, speed=None, path=None, duration=Non
         turn_rate = rng.uniform(20.0, 45.0) * (1.0 if path == "curve_left" else -1.0)  # degrees per second
         yaw = yaw + np.cumsum(np.deg2rad(turn_rate) * env / FPS)
 
-    how = {"slow": ("slowly", "at a slow pace", "leisurely"), "normal": ("", "at a normal pace", "steadily"),
-           "fast": ("quickly", "briskly", "at a fast pace")}[speed]  # fmt: skip
+    how = {
+        "slow": ("slowly", "at a slow pace", "leisurely"),
+        "normal": ("", "at a normal pace", "steadily"),
+        "fast": ("quickly", "briskly", "at a fast pace"),
+    }[speed]
     where = {
         "forward": ("forward", "forwards", "straight ahead"),
         "backward": ("backward", "backwards", "in reverse"),
@@ -141,8 +144,14 @@ def walk(rng, max_frames, *, direction=None, speed=None, path=None, duration=Non
     verbs = ("walks", "strolls" if speed == "slow" else "walks", "moves" if speed != "fast" else "hurries")
     phrases = [" ".join(w for w in (verb, place, curve, adv) if w) for verb, place, adv in zip(verbs, where, how)]
     phrases.append(" ".join(w for w in ("takes a few steps", where[0], curve) if w))
-    params = {"direction": direction, "speed": speed, "path": path, "turn_rate_deg_s": round(turn_rate, 2),
-              "cadence": round(style.cadence, 3), "duration_s": round(n / FPS, 2)}  # fmt: skip
+    params = {
+        "direction": direction,
+        "speed": speed,
+        "path": path,
+        "turn_rate_deg_s": round(turn_rate, 2),
+        "cadence": round(style.cadence, 3),
+        "duration_s": round(n / FPS, 2),
+    }
     return Segment(Plan.still(angles, yaw), phrases, params, stationary=False, continuous=True)
 
 
@@ -155,8 +164,16 @@ def run(rng, max_frames, *, speed=None, path=None, duration=None) -> Segment:
     n = min(frames(duration), max_frames)
     cadence, hip, knee = {"jog": (2.5, 28.0, 80.0), "run": (2.8, 35.0, 95.0), "sprint": (3.1, 42.0, 110.0)}[speed]
     j = rng.uniform(0.92, 1.08, size=3)
-    style = GaitStyle(cadence * j[0], hip * j[1], knee * j[2], knee_stance=18.0, swing_start=0.45, arm=30.0,
-                      elbow=85.0, lean=8.0 + 4.0 * (speed == "sprint"))  # fmt: skip
+    style = GaitStyle(
+        cadence * j[0],
+        hip * j[1],
+        knee * j[2],
+        knee_stance=18.0,
+        swing_start=0.45,
+        arm=30.0,
+        elbow=85.0,
+        lean=8.0 + 4.0 * (speed == "sprint"),
+    )
     env = envelope(n, frames(0.8), frames(0.8))
     phi = _phase(env, style.cadence)
     angles = gait_angles(phi, env, style)
@@ -176,8 +193,13 @@ def run(rng, max_frames, *, speed=None, path=None, duration=None) -> Segment:
         "run": [f"runs {where}", f"is running {where}", f"runs {where} at a steady pace"],
         "sprint": [f"sprints {where}", f"runs {where} very fast", f"dashes {where}"],
     }[speed]
-    params = {"speed": speed, "path": path, "turn_rate_deg_s": round(turn_rate, 2),
-              "cadence": round(style.cadence, 3), "duration_s": round(n / FPS, 2)}  # fmt: skip
+    params = {
+        "speed": speed,
+        "path": path,
+        "turn_rate_deg_s": round(turn_rate, 2),
+        "cadence": round(style.cadence, 3),
+        "duration_s": round(n / FPS, 2),
+    }
     plan = Plan(angles, yaw, lift, airborne, np.full((n, 3), np.nan))
     return Segment(plan, phrases, params, stationary=False, continuous=True)
 

@@ -117,6 +117,12 @@ def real_reference_clips(root: str | Path) -> dict[str, np.ndarray]:
 
 
 __all__ = [
-    "EDGE_FRAMES", "MOVING_SPEED", "PERCENTILES", "edge_speeds", "embedded_sample", "jerk_percentiles",
-    "real_reference_clips", "seam_pose_jump",
-]  # fmt: skip
+    "EDGE_FRAMES",
+    "MOVING_SPEED",
+    "PERCENTILES",
+    "edge_speeds",
+    "embedded_sample",
+    "jerk_percentiles",
+    "real_reference_clips",
+    "seam_pose_jump",
+]

@@ -22,8 +22,15 @@ def kick(rng, max_frames, *, side=None, reps=None, height=None) -> Segment:
     n = min(frames(reps * period + 0.6), max_frames)
     hip = 55.0 if height == "low" else 85.0
     hip *= rng.uniform(0.9, 1.1)
-    base = pose(knee_l=(8, 0, 0), hip_l=(-4, 0, 0), ankle_l=(-4, 0, 0), shoulder_r=(-20, 0, 10),
-                shoulder_l=(-20, 0, -10), elbow_r=(-80, 0, 0), elbow_l=(-80, 0, 0))  # fmt: skip
+    base = pose(
+        knee_l=(8, 0, 0),
+        hip_l=(-4, 0, 0),
+        ankle_l=(-4, 0, 0),
+        shoulder_r=(-20, 0, 10),
+        shoulder_l=(-20, 0, -10),
+        elbow_r=(-80, 0, 0),
+        elbow_l=(-80, 0, 0),
+    )
     chamber = base + pose(hip_r=(-hip, 0, 0), knee_r=(100, 0, 0), ankle_r=(10, 0, 0), spine_low=(-5, 0, 0))
     snap = base + pose(hip_r=(-hip, 0, 0), knee_r=(5, 0, 0), ankle_r=(25, 0, 0), spine_low=(-12, 0, 0))
     times, keys = [0.0, 0.3], [pose(), base]
@@ -36,8 +43,12 @@ def kick(rng, max_frames, *, side=None, reps=None, height=None) -> Segment:
     angles = to_side(keyframes(n, times, keys), side)
     kick_word = "high kick" if height == "high" else "low kick"
     again = "" if reps == 1 else f" {times_phrase(reps)}"
-    phrases = [f"kicks with the {side} leg{again}", f"kicks the {side} foot forward{again}",
-               f"does a {kick_word} with the {side} leg", f"raises the {side} knee and kicks"]  # fmt: skip
+    phrases = [
+        f"kicks with the {side} leg{again}",
+        f"kicks the {side} foot forward{again}",
+        f"does a {kick_word} with the {side} leg",
+        f"raises the {side} knee and kicks",
+    ]
     params = {"side": side, "reps": reps, "height": height, "hip_deg": round(hip, 1), "snap_s": round(snap_s, 3)}
     return Segment(Plan.still(angles), phrases, params)
 
@@ -52,9 +63,19 @@ def squat(rng, max_frames, *, reps=None, depth=None) -> Segment:
     reps = count(rng, "reps", reps, 1, most)
     n = min(frames(reps * period + 0.3), max_frames)
     h, k = 95.0 * depth, 120.0 * depth
-    low = pose(hip_r=(-h, 0, -8), hip_l=(-h, 0, 8), knee_r=(k, 0, 0), knee_l=(k, 0, 0), ankle_r=(h - k, 0, 0),
-               ankle_l=(h - k, 0, 0), spine_low=(30 * depth, 0, 0), spine_mid=(10 * depth, 0, 0),
-               neck=(-20 * depth, 0, 0), shoulder_r=(-85 * depth, 0, 0), shoulder_l=(-85 * depth, 0, 0))  # fmt: skip
+    low = pose(
+        hip_r=(-h, 0, -8),
+        hip_l=(-h, 0, 8),
+        knee_r=(k, 0, 0),
+        knee_l=(k, 0, 0),
+        ankle_r=(h - k, 0, 0),
+        ankle_l=(h - k, 0, 0),
+        spine_low=(30 * depth, 0, 0),
+        spine_mid=(10 * depth, 0, 0),
+        neck=(-20 * depth, 0, 0),
+        shoulder_r=(-85 * depth, 0, 0),
+        shoulder_l=(-85 * depth, 0, 0),
+    )
     times, keys = [0.0], [pose()]
     for r in range(reps):
         t0 = 0.15 + r * period
@@ -62,8 +83,12 @@ def squat(rng, max_frames, *, reps=None, depth=None) -> Segment:
         keys += [low, low, pose()]
     angles = keyframes(n, times, keys)
     deep = "deep " if depth > 0.8 else ""
-    phrases = [f"squats {times_phrase(reps)}", f"does {deep}squats" if reps > 1 else f"does a {deep}squat",
-               "bends the knees and squats down", f"crouches down and stands back up {times_phrase(reps)}"]  # fmt: skip
+    phrases = [
+        f"squats {times_phrase(reps)}",
+        f"does {deep}squats" if reps > 1 else f"does a {deep}squat",
+        "bends the knees and squats down",
+        f"crouches down and stands back up {times_phrase(reps)}",
+    ]
     params = {"reps": reps, "depth": round(depth, 3), "down_s": round(down_s, 3), "up_s": round(up_s, 3)}
     return Segment(Plan.still(angles), phrases, params, stationary=False)
 
@@ -77,9 +102,17 @@ def bow(rng, max_frames, *, depth=None, reps=None) -> Segment:
     reps = count(rng, "reps", reps, 1, most)
     n = min(frames(reps * period + 0.4), max_frames)
     tilt = 0.5 * depth  # pelvis tilt; the thighs flex by as much so the legs stay vertical
-    down = pose(pelvis=(tilt, 0, 0), hip_r=(-tilt, 0, 0), hip_l=(-tilt, 0, 0), spine_low=(0.25 * depth, 0, 0),
-                spine_mid=(0.15 * depth, 0, 0), spine_up=(0.1 * depth, 0, 0), neck=(10, 0, 0),
-                shoulder_r=(-0.9 * depth, 0, 0), shoulder_l=(-0.9 * depth, 0, 0))  # fmt: skip
+    down = pose(
+        pelvis=(tilt, 0, 0),
+        hip_r=(-tilt, 0, 0),
+        hip_l=(-tilt, 0, 0),
+        spine_low=(0.25 * depth, 0, 0),
+        spine_mid=(0.15 * depth, 0, 0),
+        spine_up=(0.1 * depth, 0, 0),
+        neck=(10, 0, 0),
+        shoulder_r=(-0.9 * depth, 0, 0),
+        shoulder_l=(-0.9 * depth, 0, 0),
+    )
     times, keys = [0.0], [pose()]
     for r in range(reps):
         t0 = 0.2 + r * period
@@ -89,7 +122,11 @@ def bow(rng, max_frames, *, depth=None, reps=None) -> Segment:
     deep = "deeply " if depth > 55 else ""
     again = "" if reps == 1 else f" {times_phrase(reps)}"
     bows = " ".join(w for w in ("bows", deep.strip(), again.strip()) if w)
-    phrases = [bows, f"bows forward{again}", "takes a bow" if reps == 1 else "takes bows",
-               "bends forward at the waist and straightens up"]  # fmt: skip
+    phrases = [
+        bows,
+        f"bows forward{again}",
+        "takes a bow" if reps == 1 else "takes bows",
+        "bends forward at the waist and straightens up",
+    ]
     params = {"depth_deg": round(depth, 1), "reps": reps, "hold_s": round(hold, 3)}
     return Segment(Plan.still(angles), phrases, params)

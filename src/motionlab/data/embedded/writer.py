@@ -84,8 +84,13 @@ def build_clip(seed: int, index: int, spec: str) -> tuple[np.ndarray, np.ndarray
     # The clip is already on the target skeleton, so retargeting would change nothing but the run time.
     features = joints_to_features(clip.joints, "t2m", retarget_to_target=False).astype(np.float32)
     joints = recover_from_ric(features, 22).astype(np.float32)
-    meta = {"family": clip.family, "families": list(clip.families), "single_action": clip.single_action,
-            "params": clip.params, "n_frames": int(features.shape[0])}  # fmt: skip
+    meta = {
+        "family": clip.family,
+        "families": list(clip.families),
+        "single_action": clip.single_action,
+        "params": clip.params,
+        "n_frames": int(features.shape[0]),
+    }
     return features, joints, [caption_line(c) for c in clip.captions], meta
 
 
@@ -134,9 +139,17 @@ def _write_into(folder: Path, n_clips: int, seed: int, progress: bool, workers: 
     for cid in clips_meta:
         clips_meta[cid]["split"] = split_of[cid]
     Normalizer.fit(train_features).save(folder)
-    meta = {"generator": "motionlab.data.embedded", "version": VERSION, "seed": seed, "n_clips": n_clips,
-            "skeleton": "t2m", "fps": 20, "families": list(FAMILIES),
-            "splits": {name: len(ids) for name, ids in splits.items()}, "clips": clips_meta}  # fmt: skip
+    meta = {
+        "generator": "motionlab.data.embedded",
+        "version": VERSION,
+        "seed": seed,
+        "n_clips": n_clips,
+        "skeleton": "t2m",
+        "fps": 20,
+        "families": list(FAMILIES),
+        "splits": {name: len(ids) for name, ids in splits.items()},
+        "clips": clips_meta,
+    }
     (folder / "meta.json").write_text(json.dumps(meta, indent=1, sort_keys=True) + "\n", encoding="utf-8")
 
 
@@ -156,8 +169,10 @@ def write_embedded_dataset(
     root = Path(root)
     minimum = 3 * len(FAMILIES)
     if int(n_clips) != n_clips or n_clips < minimum:
-        raise ValueError(f"n_clips must be an integer >= {minimum} (3 per family, so each family can appear in "
-                         f"train, val and test), got {n_clips!r}")  # fmt: skip
+        raise ValueError(
+            f"n_clips must be an integer >= {minimum} (3 per family, so each family can appear in "
+            f"train, val and test), got {n_clips!r}"
+        )
     if int(seed) != seed or seed < 0:
         raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
     if workers is None:
@@ -235,8 +250,11 @@ def ensure_embedded(profile: str | None = None, seed: int = 0, progress: bool = 
             return path
         moved = path.with_name(f"{path.name}.damaged-{time.strftime('%Y%m%d-%H%M%S')}")
         os.replace(path, moved)
-        print(f"warning: the cached embedded dataset is damaged: {damage}; moved it to {moved.name} and "
-              "generating it again", file=sys.stderr)  # fmt: skip
+        print(
+            f"warning: the cached embedded dataset is damaged: {damage}; moved it to {moved.name} and "
+            "generating it again",
+            file=sys.stderr,
+        )
     check_may_train(f"the embedded dataset {path.name}")
     n = EMBEDDED_SIZES[get_profile(profile)]
     try:

@@ -1,0 +1,205 @@
+"""The evaluation table: rows × metrics of :class:`~motionlab.estimate.Estimate`, as Markdown, JSON and records."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from motionlab.estimate import Estimate
+
+TASKS = ("reconstruction", "t2m", "multi")
+SPLITS = ("train", "val", "test")
+DEFAULT_REPEATS = {"smoke": 2, "laptop": 5, "full": 20}  # the papers use 20
+R_PRECISION_BATCH = 32  # the T2M protocol ranks each text among 32 motions
+
+RECONSTRUCTION_METRICS = ("fid", "mpjpe_mm", "sjpe", "noise_sjpe", "static_sjpe", "sjpe_ratio")
+T2M_METRICS = ("top1", "top2", "top3", "fid", "mm_dist", "diversity", "multimodality")
+MULTI_METRICS = ("r_top3", "fid", "mm_dist", "diversity", "transition_fid", "transition_diversity", "jerk")
+
+# Column headers as the papers print them (↓ lower is better, ↑ higher, → closer to the real data).
+METRIC_LABELS = {
+    "fid": "FID ↓",
+    "mpjpe_mm": "MPJPE (mm) ↓",
+    "sjpe": "sJPE ↓",
+    "noise_sjpe": "Noise sJPE ↓",
+    "static_sjpe": "Static sJPE ↓",
+    "sjpe_ratio": "sJPE (ratio, paper scale) ↓",
+    "noise_sjpe_ratio": "Noise sJPE (ratio) ↓",
+    "static_sjpe_ratio": "Static sJPE (ratio) ↓",
+    "top1": "R-Top1 ↑",
+    "top2": "R-Top2 ↑",
+    "top3": "R-Top3 ↑",
+    "r_top3": "R-Top3 ↑",
+    "mm_dist": "MM-Dist ↓",
+    "diversity": "Diversity →",
+    "multimodality": "MModality ↑",
+    "transition_fid": "Transition FID ↓",
+    "transition_diversity": "Transition Diversity →",
+    "jerk": "Jerk →",
+}
+
+
+# ----------------------------------------------------------------------------------------------- the table
+
+
+@dataclass
+class EvaluationTable:
+    """One evaluation: ``rows[row][metric]`` is an :class:`Estimate` (mean, 95 % half-width, n runs).
+
+    ``metrics`` orders the columns; a row may lack some (printed "–"). Rows in ``deterministic`` come from
+    one run of a deterministic computation: their half-width is 0 by construction, not by measurement.
+    """
+
+    task: str
+    profile: str
+    data: str  # the dataset's key (folder name + normalisation digest)
+    split: str
+    repeats: int
+    seed: int
+    config: dict[str, Any]
+    counts: dict[str, int]  # what was evaluated, e.g. {"clips": 42} or {"instances": 3, "actions": 4}
+    metrics: tuple[str, ...]
+    rows: dict[str, dict[str, Estimate]]
+    deterministic: tuple[str, ...] = ()
+    notes: list[str] = field(default_factory=list)
+    precision: str = "fp32"  # what the models were trained and sampled in (motionlab.precision); metrics are fp32
+
+    def header(self) -> str:
+        """One line: task, profile, precision, dataset key, what was evaluated, repeats and seed."""
+        counts = ", ".join(f"{n} {what}" for what, n in self.counts.items())
+        repeats = f"{self.repeats} repeat{'s' if self.repeats != 1 else ''}"
+        return (
+            f"evaluate {self.task}: profile {self.profile}, {self.precision}, data {self.data}, split "
+            f"{self.split}, {counts}, {repeats}, seed {self.seed}"
+        )
+
+    def to_markdown(self, digits: int = 3) -> str:
+        """A Markdown table, ``mean ± half-width`` per cell (the mean alone in deterministic or one-run rows)."""
+        lines = [
+            "| | " + " | ".join(METRIC_LABELS.get(m, m) for m in self.metrics) + " |",
+            "|---|" + "---:|" * len(self.metrics),
+        ]
+        for name, row in self.rows.items():
+            fixed = name in self.deterministic
+            cells = [_cell(row[m], digits, fixed) if m in row else "–" for m in self.metrics]
+            label = f"{name} (deterministic)" if fixed else name
+            lines.append(f"| {label} | " + " | ".join(cells) + " |")
+        interval = "± = 95% interval of the mean, Student's t with n − 1 degrees of freedom."
+        return "\n".join(lines + [f"\n{note}" for note in [*self.notes, interval]])
+
+    def _repr_markdown_(self) -> str:
+        return self.to_markdown()
+
+    # ------------------------------------------------------------------ what a chapter does with a table
+
+    def _row(self, row: str) -> dict[str, Estimate]:
+        if row not in self.rows:
+            raise KeyError(f"no row {row!r} in this {self.task} table; rows: {list(self.rows)}")
+        return self.rows[row]
+
+    def estimate(self, row: str, metric: str) -> Estimate:
+        """The cell ``rows[row][metric]``; a missing row or metric is named with what the table has."""
+        cells = self._row(row)
+        if metric not in cells:
+            raise KeyError(f"row {row!r} has no metric {metric!r}; it has {list(cells)}")
+        return cells[metric]
+
+    def select(self, *rows: str, metrics: Sequence[str] | None = None) -> EvaluationTable:
+        """The same table with only ``rows`` (in that order) and, if given, only ``metrics``."""
+        chosen = {name: dict(self._row(name)) for name in rows}
+        columns = tuple(self.metrics if metrics is None else metrics)
+        return replace(
+            self, rows=chosen, metrics=columns, deterministic=tuple(r for r in self.deterministic if r in rows)
+        )
+
+    def with_rows(
+        self, rows: Mapping[str, Mapping[str, Estimate]], deterministic: Sequence[str] = ()
+    ) -> EvaluationTable:
+        """The table with ``rows`` added (or replaced) after the existing ones; e.g. another model's rows measured
+        on the same instances. Metrics that only the new rows have become new columns."""
+        merged = {name: dict(cells) for name, cells in self.rows.items()}
+        merged.update({name: dict(cells) for name, cells in rows.items()})
+        metrics = list(self.metrics) + [m for cells in rows.values() for m in cells if m not in self.metrics]
+        fixed = tuple(dict.fromkeys([*self.deterministic, *deterministic]))
+        return replace(self, rows=merged, metrics=tuple(dict.fromkeys(metrics)), deterministic=fixed)
+
+    def compare(self, row_a: str, row_b: str, metric: str, name_a: str | None = None, name_b: str | None = None):
+        """``row_a`` against ``row_b`` on ``metric`` by the one rule (:func:`motionlab.report.compare`)."""
+        from motionlab.report import compare
+
+        quantity = METRIC_LABELS.get(metric, metric).rstrip(" ↓↑→")
+        return compare(
+            self.estimate(row_a, metric),
+            self.estimate(row_b, metric),
+            name_a or row_a,
+            name_b or row_b,
+            quantity=quantity,
+        )
+
+    def record(self, chapter: str, keys: Mapping[str, tuple[str, str]], note: str | None = None) -> list:
+        """Record ``{key: (row, metric)}`` for the claims table (:func:`motionlab.results.record`), each with its
+        interval; the note defaults to this table's header line (what was evaluated, repeats, seed)."""
+        from motionlab import results
+
+        return [
+            results.record(chapter, key, self.estimate(row, metric), note=note or self.header(), profile=self.profile)
+            for key, (row, metric) in keys.items()
+        ]
+
+    def to_json_dict(self) -> dict[str, Any]:
+        """Plain JSON types; a non-finite number becomes ``null`` (JSON has no NaN)."""
+        rows = {
+            name: {m: {"mean": _finite(e.mean), "ci95": _finite(e.half_width), "n": e.n} for m, e in row.items()}
+            for name, row in self.rows.items()
+        }
+        return {
+            "task": self.task,
+            "profile": self.profile,
+            "precision": self.precision,
+            "data": self.data,
+            "split": self.split,
+            "repeats": self.repeats,
+            "seed": self.seed,
+            "config": self.config,
+            "counts": self.counts,
+            "metrics": list(self.metrics),
+            "deterministic": list(self.deterministic),
+            "notes": self.notes,
+            "rows": rows,
+        }
+
+
+def _cell(e: Estimate, digits: int, fixed: bool) -> str:
+    # one run has no spread to report: print its value alone rather than a "± 0" that looks measured
+    return format(Estimate(e.mean) if fixed else e, f".{digits}f")
+
+
+def _finite(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+def check_json_path(path: str | Path, force: bool = False) -> Path:
+    """Validate an output path *before* the work: its folder exists, and it is new unless ``force``."""
+    path = Path(path)
+    if path.suffix != ".json":
+        raise ValueError(f"the JSON output must end in .json, got {str(path)!r}")
+    if not path.parent.is_dir():
+        raise ValueError(f"folder {str(path.parent)!r} of the JSON output does not exist")
+    if path.exists() and not force:
+        raise ValueError(f"{path} exists; pass force=True (--force) to replace it")
+    if path.is_dir():
+        raise ValueError(f"{path} is a folder, not a file")
+    return path
+
+
+def write_json(table: EvaluationTable, path: str | Path, force: bool = False) -> Path:
+    """Write ``table.to_json_dict()`` to ``path`` atomically: a reader sees no file or the whole file."""
+    from motionlab.io.common import write_text_atomic
+
+    path = check_json_path(path, force)
+    text = json.dumps(table.to_json_dict(), indent=1, ensure_ascii=False, allow_nan=False)
+    return write_text_atomic(path, text + "\n")

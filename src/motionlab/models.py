@@ -1,0 +1,140 @@
+"""The book's models by name: one verb, :func:`load`, for every model a chapter or a command uses.
+
+The names are those of the training plan (``motionlab train book`` prints them), so a chapter's model and the one the
+plan trained share one cache entry by construction::
+
+    from motionlab import models
+    tokenizer = models.load("tokenizer/rvq", dataset)        # a Tokenizer (encode / decode)
+    decoder = models.load("discord/rvq", dataset)            # a DisCoRDDecoder on the RVQ tokenizer's ids
+    pipe = models.load("t2m/multi-eta0.25", dataset)         # a TextToMotion pipeline
+    evaluator = models.load("evaluator", dataset)            # the text-motion evaluator (embed_motions, ...)
+
+==============================  ==================================================================================
+name                            model
+==============================  ==================================================================================
+``tokenizer/vq``, ``/rvq``      the motion VQ-VAE and the residual VQ-VAE (chapter 02)
+``toy_flow/ring[-conditional]`` chapter 03's 2-D velocity field (``dataset`` is not used)
+``discord/rvq``, ``/vq``        the profile's DisCoRD decoder on that tokenizer's ids (chapters 05, 09)
+``discord/rvq-<projection>``    chapter 04's ablation decoders: ``stacked``, ``repeat``, ``transposed``
+``t2m/dynamic``, ``/uniform``   the text-to-motion models with dynamic (paper η) and uniform (η = 0) transitions
+``t2m/multi-eta0.25``           the dynamic model at M2D2M's multi-motion η
+``t2m/<arm>-seed<k>``           a training-seed replicate of ``dynamic`` or ``uniform`` (chapter 08)
+``t2m/distance-<kind>``         chapter 08's distance ablation (``l2``, ``cosine``, ``cosine_rank``; full profile)
+``evaluator``                   the text-motion evaluator of the FID / R-precision protocol
+==============================  ==================================================================================
+
+Each is trained on first use and cached (``$MOTIONLAB_HOME/models``); inside ``motionlab book execute`` a model that
+is not cached is an error instead (the chapters only load).
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+from motionlab.profiles import get_profile
+
+PROJECTIONS = ("stacked", "repeat", "transposed")
+DISTANCES = ("l2", "cosine", "cosine_rank")
+_T2M = re.compile(r"^t2m/(dynamic|uniform)(?:-seed(\d+))?$")
+
+
+def _tokenizer(kind: str, dataset, profile: str, device):
+    from motionlab.tokenizers import tokenizer_for_dataset
+
+    return tokenizer_for_dataset(kind, dataset, profile, device=device)
+
+
+def _discord(variant: str, dataset, profile: str, seed: int, device, overrides: dict[str, Any]):
+    from motionlab.flow import discord_config, train_or_load_discord
+
+    tokens, _, projection = variant.partition("-")
+    if tokens not in ("vq", "rvq") or (projection and (tokens != "rvq" or projection not in PROJECTIONS)):
+        raise ValueError(
+            f"unknown DisCoRD decoder 'discord/{variant}'; use discord/rvq, discord/vq or "
+            f"discord/rvq-{{{','.join(PROJECTIONS)}}}"
+        )
+    tokenizer = _tokenizer(tokens, dataset, profile, device)
+    if projection:
+        from motionlab.book_models import projection_config
+
+        config = projection_config(profile, tokenizer, projection, seed, **overrides)
+    else:
+        config = discord_config(profile, tokenizer=tokenizer, seed=seed, **overrides)
+    return train_or_load_discord(dataset, tokenizer, profile, config=config, device=device)
+
+
+def _text_to_motion(variant: str, dataset, profile: str, device):
+    from motionlab.diffusion import text_to_motion_for_dataset
+    from motionlab.diffusion.training import PAPER_ETA
+    from motionlab.multimotion import MULTI_MOTION_ETA
+
+    name = f"t2m/{variant}"
+    if name == "t2m/multi-eta0.25":
+        return text_to_motion_for_dataset(dataset, profile, eta=MULTI_MOTION_ETA, device=device)
+    if variant.startswith("distance-") and variant[len("distance-") :] in DISTANCES:
+        return text_to_motion_for_dataset(dataset, profile, distance=variant[len("distance-") :], device=device)
+    match = _T2M.match(name)
+    if not match:
+        raise ValueError(
+            f"unknown text-to-motion model {name!r}; use t2m/dynamic, t2m/uniform, t2m/<arm>-seed<k>, "
+            f"t2m/multi-eta0.25 or t2m/distance-{{{','.join(DISTANCES)}}}"
+        )
+    arm, training_seed = match.group(1), match.group(2)
+    if training_seed is None:  # seed 0 of each arm: the profile's default eta and seed
+        return text_to_motion_for_dataset(dataset, profile, eta=None if arm == "dynamic" else 0.0, device=device)
+    eta = PAPER_ETA if arm == "dynamic" else 0.0
+    return text_to_motion_for_dataset(dataset, profile, eta=eta, seed=int(training_seed), device=device)
+
+
+def load(
+    name: str,
+    dataset=None,
+    profile: str | None = None,
+    *,
+    seed: int = 0,
+    device: str | None = None,
+    **overrides: Any,
+):
+    """The book's model ``name`` for ``dataset`` (default: the profile's embedded dataset) and ``profile``.
+
+    Returns the object a chapter uses: a tokenizer, a DisCoRD decoder, a text-to-motion pipeline, the evaluator, or
+    the toy velocity field. ``overrides`` change a DisCoRD decoder's config (e.g. ``prediction="x"``; a different
+    config is a different cached model). ``seed`` is the data seed of the default dataset and the DisCoRD
+    decoder's training seed, as in the training plan.
+    """
+    profile = get_profile(profile)
+    if not isinstance(name, str) or "/" not in name and name not in ("evaluator", "data"):
+        raise ValueError(f"model names look like 'discord/rvq' or 'evaluator', got {name!r}")
+    kind, _, variant = name.partition("/")
+    if overrides and kind != "discord":
+        raise ValueError(f"only DisCoRD decoders take config overrides, not {name!r}: got {sorted(overrides)}")
+    if kind == "toy_flow":
+        from motionlab.flow.toy import toy_flow_config, train_or_load_toy_flow
+
+        if variant not in ("ring", "ring-conditional"):
+            raise ValueError(f"unknown toy flow {name!r}; use toy_flow/ring or toy_flow/ring-conditional")
+        config = toy_flow_config(profile, distribution="ring", conditional=variant.endswith("conditional"), seed=seed)
+        return train_or_load_toy_flow(config, profile=profile)
+    if dataset is None:
+        from motionlab.book_models import book_dataset
+
+        dataset = book_dataset(profile, seed)
+    if kind == "data":
+        return dataset
+    if kind == "tokenizer":
+        if variant not in ("vq", "rvq"):
+            raise ValueError(f"unknown tokenizer {name!r}; use tokenizer/vq or tokenizer/rvq")
+        return _tokenizer(variant, dataset, profile, device)
+    if kind == "discord":
+        return _discord(variant, dataset, profile, seed, device, overrides)
+    if kind == "t2m":
+        return _text_to_motion(variant, dataset, profile, device)
+    if kind == "evaluator":
+        from motionlab.metrics.evaluator_training import load_or_train_evaluator
+
+        return load_or_train_evaluator(dataset, profile, device=device)
+    raise ValueError(f"unknown model {name!r}; the names are listed in motionlab.models' docstring")
+
+
+__all__ = ["load"]

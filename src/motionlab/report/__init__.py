@@ -1,0 +1,16 @@
+"""Reporting: how a measured number becomes a sentence on a page.
+
+One rule judges every comparison in the library and the book, :meth:`~motionlab.metrics.Estimate.apart_from` (the
+95% interval of the difference excludes 0), and :func:`compare` turns a comparison into a sentence with it::
+
+    from motionlab import report
+    report.compare(flow_sjpe, ff_sjpe, "DisCoRD", "feed-forward", quantity="sJPE")
+    # sJPE: DisCoRD 1.38 ± 0.02 is lower than feed-forward 1.45 ± 0.03
+
+The claims table (:mod:`motionlab.results`) judges its orderings with the same :class:`Comparison`, so a chapter's
+sentence and the verdict box at the top of its page cannot disagree.
+"""
+
+from .phrases import Comparison, Sentence, compare, difference, trend
+
+__all__ = ["Comparison", "Sentence", "compare", "difference", "trend"]

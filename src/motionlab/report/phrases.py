@@ -1,0 +1,148 @@
+"""Comparisons of two estimates, judged by the one rule, and the sentences that say them."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from motionlab.estimate import Estimate
+
+LOWER, HIGHER, SAME = "lower", "higher", "not distinguishable"
+HOLDS, FAILS, INCONCLUSIVE = "holds", "does not hold", "inconclusive"  # the claims table's verdicts
+
+
+class Sentence(str):
+    """A generated sentence: a ``str`` that Jupyter renders as Markdown (``display(s)``, or a cell's last line)."""
+
+    def _repr_markdown_(self) -> str:
+        return str(self)
+
+
+def _estimate(x: Estimate | float | Sequence[float], name: str) -> Estimate:
+    if isinstance(x, Estimate):
+        return x
+    if isinstance(x, (int, float)) and not isinstance(x, bool):
+        return Estimate(float(x))
+    raise TypeError(f"{name} must be an Estimate or a number, got {type(x).__name__}")
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """``a`` against ``b``: which is lower, and whether that is beyond the noise (the 95% interval of ``a − b``).
+
+    ``verdict`` is ``"lower"``, ``"higher"`` or ``"not distinguishable"``; :meth:`say` turns it into a sentence and
+    appends the caller's reading of each outcome.
+    """
+
+    a: Estimate
+    b: Estimate
+    names: tuple[str, str] = ("a", "b")
+    quantity: str = ""
+    against_zero: bool = False  # a measured difference (a) against 0 (b): see difference()
+
+    @property
+    def has_interval(self) -> bool:
+        return self.a.half_width > 0 or self.b.half_width > 0
+
+    @property
+    def apart(self) -> bool:
+        """The one rule: the 95% interval of the difference excludes 0."""
+        return self.a.apart_from(self.b)
+
+    @property
+    def direction(self) -> str:
+        """How the point estimates order, whatever the noise: ``"lower"``, ``"higher"`` or ``"equal"``."""
+        return LOWER if self.a.mean < self.b.mean else HIGHER if self.a.mean > self.b.mean else "equal"
+
+    @property
+    def verdict(self) -> str:
+        return self.direction if self.apart else SAME
+
+    def judge(self, expected: str) -> str:
+        """The claims table's verdict for the expectation ``"lower"`` or ``"higher"`` of ``a`` against ``b``:
+        ``"holds"``, ``"does not hold"`` or ``"inconclusive"`` (an interval and the difference within it)."""
+        if expected not in (LOWER, HIGHER):
+            raise ValueError(f"expected must be {LOWER!r} or {HIGHER!r}, got {expected!r}")
+        if self.has_interval and not self.apart:
+            return INCONCLUSIVE
+        return HOLDS if self.direction == expected else FAILS
+
+    def __str__(self) -> str:
+        (name_a, name_b), prefix = self.names, f"{self.quantity}: " if self.quantity else ""
+        if self.against_zero:
+            where = {LOWER: "below 0", HIGHER: "above 0", SAME: "not distinguishable from 0 at 95%"}[self.verdict]
+            return f"{prefix}{name_a} = {self.a}, {where}"
+        if self.verdict == SAME:
+            return f"{prefix}{name_a} {self.a} and {name_b} {self.b} are not distinguishable at 95%"
+        return f"{prefix}{name_a} {self.a} is {self.verdict} than {name_b} {self.b}"
+
+    def say(self, lower: str = "", higher: str = "", same: str = "") -> Sentence:
+        """The comparison as a sentence, followed by the caller's reading of the outcome that happened
+        (``lower``, ``higher`` or ``same``, for "not distinguishable"); each reading may be empty."""
+        reading = {LOWER: lower, HIGHER: higher, SAME: same}[self.verdict]
+        return Sentence(f"{self}{': ' + reading if reading else ''}.")
+
+    def _repr_markdown_(self) -> str:
+        return f"{self}."
+
+
+def compare(
+    a: Estimate | float, b: Estimate | float, name_a: str = "a", name_b: str = "b", *, quantity: str = ""
+) -> Comparison:
+    """Compare two independent estimates (or plain numbers, which carry no interval) by the one rule."""
+    return Comparison(_estimate(a, "a"), _estimate(b, "b"), (name_a, name_b), quantity)
+
+
+def difference(d: Estimate, name: str = "the difference", *, quantity: str = "") -> Comparison:
+    """A measured (e.g. paired) difference against 0: ``verdict`` says whether it is below, above or indistinguishable
+    from 0; the sentence reads ``TPS − independent = -0.034 ± 0.067, not distinguishable from 0 at 95%``."""
+    return Comparison(_estimate(d, "d"), Estimate(0.0), (name, "0"), quantity, against_zero=True)
+
+
+@dataclass(frozen=True)
+class Trend:
+    """A sequence of estimates, each neighbour compared by the one rule."""
+
+    steps: tuple[Comparison, ...]
+
+    @property
+    def rising(self) -> bool:
+        """Every point estimate above the one before (whatever the noise)."""
+        return all(c.direction == LOWER for c in self.steps)
+
+    @property
+    def falling(self) -> bool:
+        return all(c.direction == HIGHER for c in self.steps)
+
+    @property
+    def established(self) -> bool:
+        """Monotone, and every step beyond the noise."""
+        return (self.rising or self.falling) and all(c.apart for c in self.steps)
+
+    def __str__(self) -> str:
+        first = self.steps[0]
+        values = [f"{first.names[0]} {first.a}"] + [f"{c.names[1]} {c.b}" for c in self.steps]
+        prefix = f"{first.quantity}: " if first.quantity else ""
+        shape = "rises" if self.rising else "falls" if self.falling else "is not monotone"
+        if shape != "is not monotone":
+            shape += " at every step" if self.established else ", but not every step is beyond the noise at 95%"
+        return f"{prefix}{', '.join(values)}: it {shape}"
+
+    def say(self, established: str = "", unclear: str = "") -> Sentence:
+        """The trend as a sentence, then ``established`` or ``unclear`` as the caller reads it."""
+        reading = established if self.established else unclear
+        return Sentence(f"{self}{' — ' + reading if reading else ''}.")
+
+    def _repr_markdown_(self) -> str:
+        return f"{self}."
+
+
+def trend(estimates: Sequence[Estimate | float], names: Sequence[str], *, quantity: str = "") -> Trend:
+    """Neighbouring pairs of ``estimates`` (two or more) compared in order."""
+    if len(estimates) < 2 or len(estimates) != len(names):
+        raise ValueError(f"need two or more estimates with one name each, got {len(estimates)} and {len(names)}")
+    steps = tuple(
+        compare(a, b, na, nb, quantity=quantity)
+        for a, b, na, nb in zip(estimates[:-1], estimates[1:], names[:-1], names[1:], strict=True)
+    )
+    return Trend(steps)
