@@ -9,6 +9,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from motionlab.estimate import Estimate
 
 TASKS = ("reconstruction", "t2m", "multi")
@@ -67,6 +69,9 @@ class EvaluationTable:
     deterministic: tuple[str, ...] = ()
     notes: list[str] = field(default_factory=list)
     precision: str = "fp32"  # what the models were trained and sampled in (motionlab.precision); metrics are fp32
+    # Per row and metric, the values behind an estimate in an order shared across rows (repeat by repeat, or boundary
+    # by boundary), so that two rows measured on the same seeds and instances pair up (:meth:`paired`).
+    samples: dict[str, dict[str, list[float]]] = field(default_factory=dict)
 
     def header(self) -> str:
         """One line: task, profile, precision, dataset key, what was evaluated, repeats and seed."""
@@ -149,6 +154,20 @@ class EvaluationTable:
             results.record(chapter, key, self.estimate(row, metric), note=note or self.header(), profile=self.profile)
             for key, (row, metric) in keys.items()
         ]
+
+    def paired(self, row_a: str, row_b: str, metric: str) -> Estimate:
+        """``row_a − row_b`` on ``metric``, paired sample by sample (same seeds, same instances): the interval of a
+        paired difference, which leaves out the noise the two rows share. Needs both rows' :attr:`samples`."""
+        from motionlab.estimate import mean_ci
+
+        missing = [r for r in (row_a, row_b) if metric not in self.samples.get(r, {})]
+        if missing:
+            raise KeyError(f"no {metric!r} samples for {missing}; rows with samples: {list(self.samples)}")
+        a, b = (np.asarray(self.samples[r][metric], dtype=float) for r in (row_a, row_b))
+        if a.shape != b.shape:
+            raise ValueError(f"{row_a!r} has {a.size} {metric} samples and {row_b!r} {b.size}: they do not pair up")
+        d = a - b
+        return mean_ci(d[np.isfinite(d)])
 
     def to_json_dict(self) -> dict[str, Any]:
         """Plain JSON types; a non-finite number becomes ``null`` (JSON has no NaN)."""
