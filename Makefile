@@ -29,8 +29,11 @@ book: $(STAMP)
 test: $(STAMP)
 	MOTIONLAB_PROFILE=smoke $(BIN)/python -m pytest --nbval-lax --nbval-current-env
 
+# ruff lints and checks the formatting of the library, the tests, the tools and the chapters' code cells (.ipynb)
+LINTED := src tests benchmarks tools experiments notebooks
 lint: $(STAMP)
-	$(BIN)/ruff check src tests benchmarks tools experiments
+	$(BIN)/ruff check $(LINTED)
+	$(BIN)/ruff format --check $(LINTED)
 
 clean:
 	rm -rf _build

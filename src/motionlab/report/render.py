@@ -1,0 +1,233 @@
+"""The claims table and a chapter's findings box: judged rows, rendered as HTML (site) and Markdown."""
+
+from __future__ import annotations
+
+import html
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+
+from motionlab.profiles import get_profile
+
+from .claims import CLAIMS, FINDINGS
+from .rules import Claim
+from .store import CHAPTERS, FAILS, HOLDS, INCONCLUSIVE, MISSING, VERDICTS, Result, load_all
+
+# ----------------------------------------------------------------------------------------------
+# The table
+
+
+@dataclass(frozen=True)
+class ClaimRow:
+    paper: str
+    source: str
+    statement: str
+    paper_value: str
+    rule: str
+    chapter: str
+    ours: str  # our numbers as a phrase, with units and intervals (see describe_values)
+    verdict: str
+    missing: tuple[str, ...] = ()
+    mechanism: str = ""  # one line per Evidence, from the recorded numbers ("" when the claim has none)
+
+
+VERDICT_COLOURS = {HOLDS: "#1a7f37", FAILS: "#cf222e", INCONCLUSIVE: "#9a6700", MISSING: "#57606a"}
+
+
+def _verdict_html(verdict: str) -> str:
+    style = f"color:{VERDICT_COLOURS[verdict]};font-weight:bold"
+    return f'<span class="ml-verdict" style="{style}">{html.escape(verdict)}</span>'
+
+
+def count_sentence(counts: Mapping[str, int], noun: str = "claims") -> str:
+    """``5 of 11 claims hold, 4 do not hold, 2 inconclusive``: the verdicts of a group, in words."""
+    total = sum(counts.values())
+    parts = [f"{counts.get(HOLDS, 0)} of {total} {noun} hold"]
+    parts += [
+        f"{counts[v]} {'do not hold' if v == FAILS else v}" for v in (FAILS, INCONCLUSIVE, MISSING) if counts.get(v)
+    ]
+    return ", ".join(parts)
+
+
+@dataclass
+class ClaimsTable:
+    """Rows of :func:`claims_table`; renders as HTML in Jupyter and in the book: a summary line per paper, then
+    one row per claim (verdict, claim, the paper's number, ours as a phrase) and, under a claim whose mechanism was
+    measured, a full-width line with it."""
+
+    rows: list[ClaimRow] = field(default_factory=list)
+    profile: str = "laptop"
+
+    def __iter__(self) -> Iterator[ClaimRow]:
+        return iter(self.rows)
+
+    def __len__(self) -> int:
+        return len(self.rows)
+
+    def counts(self) -> dict[str, int]:
+        return {v: sum(row.verdict == v for row in self.rows) for v in VERDICTS}
+
+    def by_paper(self) -> dict[str, dict[str, int]]:
+        """``{paper: {verdict: count}}``, papers in the order of the rows."""
+        out: dict[str, dict[str, int]] = {}
+        for row in self.rows:
+            out.setdefault(row.paper, dict.fromkeys(VERDICTS, 0))[row.verdict] += 1
+        return out
+
+    def summary(self) -> list[str]:
+        """One line per paper: ``DisCoRD: 5 of 11 claims hold, 4 do not hold, 2 inconclusive``."""
+        return [f"{paper}: {count_sentence(counts)}" for paper, counts in self.by_paper().items()]
+
+    def summary_html(self) -> str:
+        """The summary lines as a box: "What reproduces" opens with it."""
+        lines = "".join(
+            f'<p class="ml-claims-summary" style="margin:0.2em 0"><b>{html.escape(paper)}</b>: '
+            f"{html.escape(count_sentence(counts))}.</p>"
+            for paper, counts in self.by_paper().items()
+        )
+        return (
+            f'<div class="admonition note ml-findings" style="border-left:4px solid #276be9;padding:0.3em 0.9em">'
+            f'<p class="admonition-title" style="font-weight:bold">What reproduces (profile '
+            f"<code>{html.escape(self.profile)}</code>)</p>{lines}</div>"
+        )
+
+    def _repr_html_(self) -> str:
+        return self.html()
+
+    def html(self, summary: bool = True) -> str:
+        """The table as HTML; ``summary=False`` leaves out the summary lines (shown elsewhere on the page)."""
+        esc = html.escape
+        out = ['<div class="ml-claims">']
+        for paper, counts in self.by_paper().items() if summary else ():
+            out.append(
+                f'<p class="ml-claims-summary" style="margin:0.2em 0"><b>{esc(paper)}</b>: '
+                f"{esc(count_sentence(counts))}.</p>"
+            )
+        out += [
+            '<table class="ml-claims-table" style="width:100%;font-size:0.9em">',
+            f"<caption>Claims vs. our measurements (profile <code>{esc(self.profile)}</code>)</caption>",
+            '<colgroup><col style="width:7.5em"><col style="width:36%"><col style="width:24%"><col></colgroup>',
+            "<thead><tr><th>Verdict</th><th>Claim</th><th>Paper</th><th>Ours</th></tr></thead><tbody>",
+        ]
+        for row in self.rows:
+            claim = (
+                f"{esc(row.statement)}<br><small>{esc(row.paper)}, {esc(row.source)} &middot; "
+                f"chapter {esc(row.chapter)}</small>"
+            )
+            out.append(
+                f"<tr><td>{_verdict_html(row.verdict)}</td><td>{claim}</td><td>{esc(row.paper_value)}</td>"
+                f"<td>{esc(row.ours)}</td></tr>"
+            )
+            if row.mechanism:
+                lines = "<br>".join(esc(line) for line in row.mechanism.split("\n") if line)
+                out.append(
+                    f'<tr class="ml-mechanism"><td></td><td colspan="3"><small><b>Why, as measured:</b> '
+                    f"{lines}</small></td></tr>"
+                )
+        out.append("</tbody></table></div>")
+        return "\n".join(out)
+
+    def to_markdown(self) -> str:
+        out = [f"- {line}" for line in self.summary()] + [""]
+        out += ["| Paper | Where | Claim | Paper | Ours | Verdict | Measured mechanism |", "|---" * 7 + "|"]
+        for r in self.rows:
+            cells = (r.paper, r.source, r.statement, r.paper_value, r.ours, r.verdict, r.mechanism.replace("\n", "; "))
+            out.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+        return "\n".join(out)
+
+
+def judge(claim: Claim, recorded: Mapping[str, Result]) -> ClaimRow:
+    """One row: the claim, our numbers for its keys (a phrase with units and intervals), and the verdict."""
+    missing = tuple(k for k in claim.keys if k not in recorded)
+    verdict = MISSING if missing else claim.rule.judge(recorded)
+    mechanism = "\n".join(e.format(recorded) for e in claim.mechanism)
+    return ClaimRow(
+        claim.paper,
+        claim.source,
+        claim.statement,
+        claim.paper_value,
+        claim.rule.describe(),
+        claim.chapter,
+        claim.rule.sentence(recorded),
+        verdict,
+        missing,
+        mechanism,
+    )
+
+
+def claims_table(
+    profile: str | None = None, recorded: Mapping[str, Result] | None = None, claims: Sequence[Claim] = CLAIMS
+) -> ClaimsTable:
+    """Judge every claim on the results recorded for ``profile`` (or on ``recorded`` if given)."""
+    profile = get_profile(profile)
+    recorded = load_all(profile) if recorded is None else recorded
+    return ClaimsTable([judge(c, recorded) for c in claims], profile)
+
+
+@dataclass(frozen=True)
+class FindingRow:
+    verdict: str
+    statement: str
+    ours: str
+    source: str  # "DisCoRD, Table 1" for a paper's claim, "" for the chapter's own finding
+
+
+@dataclass
+class ChapterFindings:
+    """What one chapter found, judged on its recorded numbers; renders as a box (HTML) in Jupyter and the book."""
+
+    chapter: str
+    profile: str
+    rows: list[FindingRow] = field(default_factory=list)
+
+    def counts(self) -> dict[str, int]:
+        return {v: sum(row.verdict == v for row in self.rows) for v in VERDICTS}
+
+    def _repr_html_(self) -> str:
+        """A compact box: one line per finding (verdict, statement, source, our numbers), then where it comes from."""
+        esc = html.escape
+        items = []
+        for row in self.rows:
+            source = f' <span class="ml-source">({esc(row.source)})</span>' if row.source else ""
+            items.append(
+                f'<li style="margin:0.15em 0">{_verdict_html(row.verdict)}: {esc(row.statement)}{source} '
+                f'<span class="ml-ours" style="opacity:0.8">Ours: {esc(row.ours)}.</span></li>'
+            )
+        claims = sum(bool(row.source) for row in self.rows)
+        summary = count_sentence(self.counts(), "claims of the papers" if claims == len(self.rows) else "statements")
+        body = "\n".join(items) if items else "<li>This chapter recorded nothing yet.</li>"
+        return (
+            f'<div class="admonition note ml-findings" style="border-left:4px solid #276be9;padding:0.2em 0.8em;'
+            f'font-size:0.9em;line-height:1.4">'
+            f'<p class="admonition-title" style="font-weight:bold">What this chapter found: {esc(summary)}</p>'
+            f'<ul style="margin:0.2em 0;padding-left:1.2em">{body}</ul>'
+            f'<p style="margin:0.2em 0 0.1em 0;opacity:0.8">Generated from the numbers this chapter recorded '
+            f"(profile <code>{esc(self.profile)}</code>); <i>What reproduces</i> judges every claim of both papers."
+            "</p></div>"
+        )
+
+    def _repr_markdown_(self) -> str:
+        lines = [f"**What this chapter found** (profile `{self.profile}`):", ""]
+        lines += [
+            f"- **{r.verdict}**: {r.statement}" + (f" ({r.source})" if r.source else "") + f" Ours: {r.ours}."
+            for r in self.rows
+        ]
+        return "\n".join(lines)
+
+
+def chapter_findings(
+    chapter: str, profile: str | None = None, recorded: Mapping[str, Result] | None = None
+) -> ChapterFindings:
+    """The papers' claims judged on keys of ``chapter`` (a prefix such as ``"discord"``), then its own findings."""
+    if chapter not in CHAPTERS:
+        raise ValueError(f"unknown chapter prefix {chapter!r}; one of {sorted(CHAPTERS)}")
+    profile = get_profile(profile)
+    recorded = load_all(profile) if recorded is None else recorded
+    rows = []
+    for claim in CLAIMS:
+        if claim.keys[0].split("/", 1)[0] == chapter:
+            row = judge(claim, recorded)
+            rows.append(FindingRow(row.verdict, claim.statement, row.ours, f"{claim.paper}, {claim.source}"))
+    for finding in FINDINGS.get(chapter, ()):
+        verdict = MISSING if any(k not in recorded for k in finding.keys) else finding.rule.judge(recorded)
+        rows.append(FindingRow(verdict, finding.statement, finding.rule.sentence(recorded), ""))
+    return ChapterFindings(chapter, profile, rows)

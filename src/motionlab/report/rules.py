@@ -1,0 +1,247 @@
+"""Rules: how one claim (or a chapter finding) is judged from recorded results, by the one comparison rule."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+from motionlab.estimate import format_estimate
+
+from .quantities import quantity
+from .store import CHAPTERS, FAILS, HOLDS, INCONCLUSIVE, Result
+
+
+def _relation(a: Result | None, b: Result | None) -> str:
+    if a is None or b is None:
+        return "vs"
+    return "<" if a.value < b.value else ">" if a.value > b.value else "="
+
+
+def describe_values(
+    keys: Sequence[str], recorded: Mapping[str, Result], compare: bool = True, name: bool = True
+) -> str:
+    """Our numbers for ``keys`` as a phrase: ``sJPE: 3.62 ± 0.011 (flow decoder) > 2.57 (feed-forward decoder)``.
+
+    Keys of one quantity share its name, each value followed by its condition. With ``compare``, neighbouring values
+    are joined by how they compare (``<``, ``>``, ``=``); else by commas. ``name=False`` leaves out a shared quantity
+    (the caller has named it). A key not recorded reads "not yet measured". Two different values never read alike:
+    where three digits would print them equal, both get more.
+    """
+    names = [quantity(k)[0] for k in keys]
+    shared = len(set(names)) == 1
+    values = [recorded[k].describe() if k in recorded else "not yet measured" for k in keys]
+    for i in range(1, len(keys)):
+        a, b = recorded.get(keys[i - 1]), recorded.get(keys[i])
+        if a is not None and b is not None and a.value != b.value and values[i - 1] == values[i]:
+            for digits in range(4, 8):
+                values[i - 1], values[i] = (format_estimate(r.value, r.ci, r.unit, significant=digits) for r in (a, b))
+                if values[i - 1] != values[i]:
+                    break
+    text = ""
+    for i, key in enumerate(keys):
+        quantity_name, condition = quantity(key)
+        if shared:
+            part = f"{values[i]} ({condition})" if condition else values[i]
+        else:
+            part = f"{quantity_name} ({condition}) {values[i]}" if condition else f"{quantity_name} {values[i]}"
+        if i:
+            text += f" {_relation(recorded.get(keys[i - 1]), recorded.get(key))} " if compare else ", "
+        text += part
+    return f"{names[0]}: {text}" if shared and name else text
+
+
+# ----------------------------------------------------------------------------------------------
+# Rules: how one claim is judged from recorded results
+
+
+def _compare(a: Result, b: Result, expected: str) -> str:
+    """Verdict of the expectation that ``a`` is ``"lower"`` (or ``"higher"``) than ``b``, by the one rule
+    (:meth:`motionlab.report.Comparison.judge`): "inconclusive" when a side carries an interval and the 95% interval
+    of the difference, half-width ``sqrt(h_a² + h_b²)`` for independent estimates, contains 0.
+
+    Not "when their intervals overlap": two 95% intervals can overlap while the difference is clear (for equal
+    widths the overlap test works at about the 99.5% level, not 95%). Where both were measured on the same samples,
+    a paired difference recorded beside them (a mechanism row) is sharper still.
+    """
+    from motionlab.report import compare
+
+    return compare(a.estimate, b.estimate).judge(expected)
+
+
+def _combine(verdicts: Sequence[str]) -> str:
+    if FAILS in verdicts:
+        return FAILS
+    if INCONCLUSIVE in verdicts:
+        return INCONCLUSIVE
+    return HOLDS
+
+
+@dataclass(frozen=True)
+class Less:
+    """``a < b``."""
+
+    a: str
+    b: str
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        return (self.a, self.b)
+
+    def judge(self, r: Mapping[str, Result]) -> str:
+        return _compare(r[self.a], r[self.b], "lower")
+
+    def describe(self) -> str:
+        return f"{self.a} < {self.b}"
+
+    def sentence(self, r: Mapping[str, Result]) -> str:
+        """Our numbers for the rule's keys, for a reader (``describe`` is the rule itself)."""
+        return describe_values(self.keys, r)
+
+
+@dataclass(frozen=True)
+class Greater(Less):
+    """``a > b``."""
+
+    def judge(self, r: Mapping[str, Result]) -> str:
+        return _compare(r[self.a], r[self.b], "higher")
+
+    def describe(self) -> str:
+        return f"{self.a} > {self.b}"
+
+
+@dataclass(frozen=True)
+class Between:
+    """``low < x < high``."""
+
+    x: str
+    low: str
+    high: str
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        return (self.x, self.low, self.high)
+
+    def judge(self, r: Mapping[str, Result]) -> str:
+        x, lo, hi = r[self.x], r[self.low], r[self.high]
+        return _combine([_compare(lo, x, "lower"), _compare(x, hi, "lower")])
+
+    def describe(self) -> str:
+        return f"{self.low} < {self.x} < {self.high}"
+
+    def sentence(self, r: Mapping[str, Result]) -> str:
+        return describe_values((self.low, self.x, self.high), r)
+
+
+@dataclass(frozen=True)
+class Increasing:
+    """``keys[0] < keys[1] < ...`` (each neighbouring pair judged)."""
+
+    ordered: tuple[str, ...]
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        return self.ordered
+
+    def judge(self, r: Mapping[str, Result]) -> str:
+        pairs = zip(self.ordered[:-1], self.ordered[1:], strict=True)
+        return _combine([_compare(r[a], r[b], "lower") for a, b in pairs])
+
+    def describe(self) -> str:
+        return " < ".join(self.ordered)
+
+    def sentence(self, r: Mapping[str, Result]) -> str:
+        return describe_values(self.ordered, r)
+
+
+@dataclass(frozen=True)
+class Within:
+    """``|a - b| <= rel_tol * |b|``: ``a`` is comparable to the reference ``b``."""
+
+    a: str
+    b: str
+    rel_tol: float
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        return (self.a, self.b)
+
+    def judge(self, r: Mapping[str, Result]) -> str:
+        a, b = r[self.a].value, r[self.b].value
+        return HOLDS if abs(a - b) <= self.rel_tol * abs(b) else FAILS
+
+    def describe(self) -> str:
+        return f"{self.a} within ±{self.rel_tol:.0%} of {self.b}"
+
+    def sentence(self, r: Mapping[str, Result]) -> str:
+        text = describe_values(self.keys, r, compare=False)
+        if self.a in r and self.b in r and r[self.b].value:
+            a, b = r[self.a].value, r[self.b].value
+            gap = abs(a - b) / abs(b)
+            apart = f"{gap:.0%} apart" if gap <= 1 or not a else f"{max(abs(a / b), abs(b / a)):.3g} times apart"
+            text += f": {apart} (the claim allows {self.rel_tol:.0%})"
+        return text
+
+
+@dataclass(frozen=True)
+class AtMost:
+    """``x <= limit``: a measured error stays below a tolerance (the limit is a setting, never a result)."""
+
+    x: str
+    limit: float
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        return (self.x,)
+
+    def judge(self, r: Mapping[str, Result]) -> str:
+        return HOLDS if r[self.x].value <= self.limit else FAILS
+
+    def describe(self) -> str:
+        return f"{self.x} <= {self.limit:g}"
+
+    def sentence(self, r: Mapping[str, Result]) -> str:
+        unit = r[self.x].unit if self.x in r else None
+        return f"{describe_values(self.keys, r)} (at most {format_estimate(self.limit, unit=unit)})"
+
+
+Rule = Less | Greater | Between | Increasing | Within | AtMost
+
+
+@dataclass(frozen=True)
+class Evidence:
+    """A measured quantity that explains a verdict (the *mechanism*, not the verdict): a label and the keys shown.
+
+    It never changes the verdict; the table prints ``label: value (condition), ...`` from the recorded numbers (each
+    key's quantity and condition come from :data:`QUANTITIES`).
+    """
+
+    label: str
+    keys: tuple[str, ...]
+
+    def format(self, recorded: Mapping[str, Result]) -> str:
+        return f"{self.label}: {describe_values(self.keys, recorded, compare=False, name=False)}"
+
+
+@dataclass(frozen=True)
+class Claim:
+    """A claim of a paper, the paper's numbers, and the rule that judges it on our numbers."""
+
+    paper: str
+    source: str
+    statement: str
+    paper_value: str
+    rule: Rule
+    mechanism: tuple[Evidence, ...] = ()  # what our measurements say about *why* the claim holds or fails
+
+    @property
+    def keys(self) -> tuple[str, ...]:
+        return self.rule.keys
+
+    @property
+    def mechanism_keys(self) -> tuple[str, ...]:
+        return tuple(k for e in self.mechanism for k in e.keys)
+
+    @property
+    def chapter(self) -> str:
+        prefix = self.keys[0].split("/", 1)[0]
+        return CHAPTERS.get(prefix, prefix)
