@@ -237,6 +237,10 @@ def _book_execute(args: argparse.Namespace) -> int:
     return 0
 
 
+# The models `motionlab train <model>` trains, by their names in the book's plan (motionlab.models.load).
+_TRAINED_MODELS = {"vq": "tokenizer/vq", "rvq": "tokenizer/rvq", "evaluator": "evaluator", "diffusion": "t2m/dynamic"}
+
+
 def _trained_model(
     name: str, dataset, profile: str, device: str | None, flow_options: dict | None = None, flow_tokenizer: str = "rvq"
 ):
@@ -244,24 +248,22 @@ def _trained_model(
 
     ``flow_options`` (DisCoRD only) override the profile's decoder config, e.g. ``{"prediction": "x"}``;
     ``flow_tokenizer`` is whose tokens it decodes: "rvq" (DisCoRD Table 1) or "vq" (the diffusion model's,
-    the decoder ``generate``/``evaluate t2m|multi --decoder discord`` use)."""
-    from .tokenizers import tokenizer_for_dataset
+    the decoder ``generate``/``evaluate t2m|multi --decoder discord`` use). Returns the network: the evaluator's
+    networks and the diffusion model's denoiser, not their wrappers."""
+    from . import models
 
-    if name in ("vq", "rvq"):
-        return tokenizer_for_dataset(name, dataset, profile, device=device)
-    if name == "evaluator":
-        from .metrics.evaluator_training import load_or_train_evaluator
-
-        return load_or_train_evaluator(dataset, profile, device=device).networks
     if name == "discord":
-        from .flow import discord_config, train_or_load_discord
-
-        tokenizer = tokenizer_for_dataset(flow_tokenizer, dataset, profile, device=device)
-        config = discord_config(profile, tokenizer=tokenizer, **(flow_options or {}))
-        return train_or_load_discord(dataset, tokenizer, profile, config=config, device=device)
-    from .diffusion.pipeline import text_to_motion_for_dataset
-
-    return text_to_motion_for_dataset(dataset, profile, device=device).model
+        if flow_tokenizer not in ("rvq", "vq"):
+            raise ValueError(f"the DisCoRD decoder reads 'rvq' or 'vq' tokens, got {flow_tokenizer!r}")
+        return models.load(f"discord/{flow_tokenizer}", dataset, profile, device=device, **(flow_options or {}))
+    if name not in _TRAINED_MODELS:
+        raise ValueError(f"unknown model {name!r}; use one of {', '.join(sorted([*_TRAINED_MODELS, 'discord']))}")
+    if flow_options:  # models.load refuses them too; this names the command's options
+        raise ValueError(f"{', '.join(flow_options)} configure the DisCoRD decoder; they need the model 'discord'")
+    model = models.load(_TRAINED_MODELS[name], dataset, profile, device=device)
+    if name == "evaluator":
+        return model.networks
+    return model.model if name == "diffusion" else model
 
 
 def _generate(args: argparse.Namespace) -> int:
@@ -429,7 +431,8 @@ def _evaluation_models(task: str, config) -> list[str]:
     if task == "reconstruction":
         kind = config.tokenizer_kind
         return [f"tokenizer/{kind}", "evaluator"] + ([f"discord/{kind}"] if config.decoder == "discord" else [])
-    return ["t2m/dynamic", "evaluator"] + (["discord/vq"] if config.decoder == "discord" else [])
+    models = list(config.models) if task == "t2m" else [getattr(config, "model", "t2m/dynamic")]
+    return [*models, "evaluator"] + (["discord/vq"] if config.decoder == "discord" else [])
 
 
 def _flow_overrides(options) -> dict:
@@ -482,7 +485,9 @@ def _evaluation_config(args: argparse.Namespace, repeats: int):
     )
     if args.task == "reconstruction":
         flow = {name: getattr(args, name) for name in FLOW_OPTIONS}
-        return ReconstructionConfig(tokenizer=args.tokenizer, limit=args.limit, **flow, **common)
+        table_e = dict(grid=args.grid, grid_repeats=args.grid_repeats, timing_repeats=args.timing_repeats)
+        extra = dict(jerk=args.jerk, token_phases=args.token_phases, **table_e)
+        return ReconstructionConfig(tokenizer=args.tokenizer, limit=args.limit, **extra, **flow, **common)
     sampling = dict(num_steps=args.num_steps, guidance_scale=args.guidance_scale)
     if args.task == "t2m":
         return TextToMotionConfig(
@@ -490,13 +495,35 @@ def _evaluation_config(args: argparse.Namespace, repeats: int):
             multimodality=args.multimodality,
             mm_texts=args.mm_texts,
             mm_repeats=args.mm_repeats,
+            models=tuple(m.strip() for m in args.models.split(",")),
+            guidance_scales=_numbers(args.guidance_scales, "--guidance-scales"),
+            top_p=args.top_p,
+            reconstruction=args.reconstruction,
+            token_stats=args.token_stats,
             **sampling,
             **common,
         )
     methods = tuple(m.strip() for m in args.methods.split(","))
     return MultiMotionConfig(
-        methods=methods, instances=args.instances, actions=args.actions, T_s=args.T_s, **sampling, **common
+        methods=methods,
+        model=args.model,
+        instances=args.instances,
+        actions=args.actions,
+        T_s=args.T_s,
+        segment_jerk=args.segment_jerk,
+        **sampling,
+        **common,
     )
+
+
+def _numbers(text: str | None, option: str) -> tuple[float, ...]:
+    """``"0,1,2,4"`` -> ``(0.0, 1.0, 2.0, 4.0)``; None -> ``()``."""
+    if text is None:
+        return ()
+    try:
+        return tuple(float(x) for x in text.split(","))
+    except ValueError as err:
+        raise ValueError(f"{option} must be comma-separated numbers, got {text!r}") from err
 
 
 def _add_flow_training_options(parser: argparse.ArgumentParser) -> None:
@@ -593,6 +620,29 @@ def _add_evaluate(sub) -> None:
         default=None,
         help="x-prediction decoders: return the network's x̂1 at the last step",
     )
+    rec.add_argument(
+        "--grid",
+        default=None,
+        help="DisCoRD Table E: one more DisCoRD row per solver:intervals, e.g. euler:1,euler:16,midpoint:15",
+    )
+    rec.add_argument(
+        "--grid-repeats", type=int, default=None, help="sampling seeds of each --grid row (default: --repeats)"
+    )
+    rec.add_argument(
+        "--timing-repeats",
+        type=int,
+        default=0,
+        help="also time K decodes of one batch of 32 clips per decoder, and count its GFLOPs (default: 0, no timing)",
+    )
+    rec.add_argument(
+        "--jerk", action="store_true", help="also the mean joint jerk (m/s³), with the ground truth's own as a row"
+    )
+    rec.add_argument(
+        "--token-phases",
+        dest="token_phases",
+        action="store_true",
+        help="also Noise sJPE by token phase (phase 0: jerk stencils centred on a token boundary) and phase 0's share",
+    )
 
     t2m = tasks.add_parser(
         "t2m",
@@ -612,6 +662,24 @@ def _add_evaluate(sub) -> None:
     t2m.add_argument("--multimodality", action="store_true", help="also MultiModality (slow)")
     t2m.add_argument("--mm-texts", type=int, default=100, help="texts for MultiModality (default: 100)")
     t2m.add_argument("--mm-repeats", type=int, default=30, help="generations per text (default: 30)")
+    t2m.add_argument(
+        "--models",
+        default="t2m/dynamic",
+        help="comma-separated model names (motionlab.models), one row each, e.g. t2m/uniform,t2m/dynamic-seed1 "
+        "(default: t2m/dynamic)",
+    )
+    t2m.add_argument(
+        "--guidance-scales",
+        default=None,
+        help="comma-separated guidance scales, one row per scale and model, e.g. 0,1,2,4 (instead of --guidance-scale)",
+    )
+    t2m.add_argument("--top-p", type=float, default=None, help="truncate p(x0 | x_t) to its top-p mass (e.g. 0.85)")
+    t2m.add_argument("--reconstruction", action="store_true", help="also the VQ-VAE reconstruction of the real motions")
+    t2m.add_argument(
+        "--token-stats",
+        action="store_true",
+        help="also the sampled codes' histogram TV to the real codes and their adjacent-repeat rate",
+    )
 
     multi = tasks.add_parser(
         "multi",
@@ -623,13 +691,28 @@ def _add_evaluate(sub) -> None:
     multi.add_argument(
         "--methods",
         default="tps,independent",
-        help="comma-separated, of tps, independent, separate, slerp, handshake (default: tps,independent)",
+        help="comma-separated, of tps, independent, separate, slerp, handshake, each with options after colons: "
+        "tps:T_s=50, tps:joint_text=all (the compound condition), slerp:transition=40 (default: tps,independent)",
+    )
+    multi.add_argument(
+        "--model",
+        default="t2m/dynamic",
+        help="the text-to-motion model, by its training-plan name: t2m/dynamic, t2m/uniform, t2m/multi-eta0.25 "
+        "(M2D2M's multi-motion eta), ... (default: t2m/dynamic)",
+    )
+    multi.add_argument(
+        "--segment-jerk",
+        dest="segment_jerk",
+        action="store_true",
+        help="also the Jerk inside the actions, away from the transitions",
     )
     multi.add_argument(
         "--instances", type=int, default=None, help="multi-action instances (default: as many as the pool covers once)"
     )
     multi.add_argument("--actions", type=int, default=4, help="actions per instance (default: 4)")
-    multi.add_argument("--T-s", dest="T_s", type=int, default=None, help="TPS switch step (default: 0.9 T)")
+    multi.add_argument(
+        "--T-s", dest="T_s", type=int, default=None, help="TPS switch step where a method gives none (default: 0.9 T)"
+    )
     multi.add_argument("--decoder", choices=["vq", "discord"], default="vq", help="token decoder (default: vq)")
     for task in (rec, t2m, multi):
         task.set_defaults(func=_evaluate)

@@ -71,12 +71,16 @@ class DiscordSizes:
     seeds: int = 20  # sampling seeds of the DisCoRD rows (the papers repeat 20 times)
     test_clips: int | None = None  # None: the whole test split
     timing_repeats: int = 5  # timed calls per decoder (Table E)
+    euler_steps: tuple[int, ...] = (1, 2, 4, 8, 16)  # Table E's Euler rows (intervals)
+    midpoint_steps: tuple[int, ...] = (1, 2, 4, 8, 15)  # the paper's 2, 3, 5, 9, 16 "steps" (grid points)
+    grid_seeds: int = 1  # sampling seeds of each Table E row: the first of Table 1's
+    sweep_profile: bool = False  # the committed sweeps measured this profile's data and chose its decoder
     animation_frames: int = 60
 
 
 DISCORD = {
     "smoke": {"seeds": 2, "timing_repeats": 3, "animation_frames": 40},
-    "laptop": {"seeds": 3, "test_clips": 160, "timing_repeats": 3},
+    "laptop": {"seeds": 3, "test_clips": 160, "timing_repeats": 3, "sweep_profile": True},
 }
 
 
@@ -85,7 +89,7 @@ class SJPESizes:
     """Chapter 06 sJPE."""
 
     noise_draws: int = 3  # noise draws per sigma (the intervals are over these draws)
-    partners: int = 1  # random partner clips per clip for the evaluator's pairs
+    partners: int = 1  # random partner draws per clip for the seam Jerk (M2D2M Table 1's concatenated row)
 
 
 SJPE = {"smoke": {"noise_draws": 2, "partners": 2}, "laptop": {}}
@@ -98,7 +102,9 @@ class DiffusionSizes:
     eval_clips: int | None = None  # None: the whole test split
     repeats: int = 20
     num_steps: int | None = None  # sampling steps; None: all T
+    guidance_scales: tuple[float, ...] = (0.0, 1.0, 2.0, 4.0)  # one Table 3 row each (s = 0 and M2D2M's 4 printed)
     mm_texts: int = 100  # MultiModality texts
+    mm_repeats: int = 30  # generations per MultiModality text (the T2M protocol: 100 texts x 30)
     entropy_clips: int = 512
     demo_texts: int = 16
     animation_frames: int = 60
@@ -110,11 +116,19 @@ DIFFUSION = {
         "repeats": 2,
         "num_steps": 10,
         "mm_texts": 4,
+        "mm_repeats": 10,
         "entropy_clips": 16,
         "demo_texts": 8,
         "animation_frames": 40,
     },
-    "laptop": {"eval_clips": 256, "repeats": 3, "num_steps": 25, "mm_texts": 24, "entropy_clips": 128},
+    "laptop": {
+        "eval_clips": 256,
+        "repeats": 3,
+        "num_steps": 25,
+        "mm_texts": 24,
+        "mm_repeats": 10,
+        "entropy_clips": 128,
+    },
 }
 
 
@@ -125,9 +139,23 @@ class TransitionsSizes:
     eval_clips: int | None = None
     repeats: int = 20
     num_steps: int | None = None
+    guidance_scale: float = 4.0  # M2D2M's s for single motions, every model alike
     training_seeds: tuple[int, ...] = (0, 1, 2)  # per arm; seed 0 is the model chapters 07 and 09 share
-    sweep_etas: tuple[float, ...] = (0.0, 0.25, 0.5, 2.0, 8.0)
+    sweep_etas: tuple[float, ...] = (0.0, 0.25, 0.5, 2.0, 8.0)  # one model per η at training seed 0
     distance_ablation: bool = True  # one more model per distance function
+
+    def __post_init__(self):
+        seeds = tuple(self.training_seeds)  # a papermill parameter arrives as a list
+        if not seeds or seeds[0] != 0 or len(set(seeds)) != len(seeds):
+            raise ValueError(
+                f"training_seeds must be distinct and start with 0 (the model the other chapters share), got {seeds}"
+            )
+        object.__setattr__(self, "training_seeds", tuple(int(s) for s in seeds))
+        object.__setattr__(self, "sweep_etas", tuple(float(e) for e in self.sweep_etas))
+
+    def override(self, **choices: Any) -> TransitionsSizes:
+        """These sizes with a chapter's parameters applied; a choice of None keeps the profile's value."""
+        return replace(self, **{name: value for name, value in choices.items() if value is not None})
 
 
 TRANSITIONS = {

@@ -23,6 +23,8 @@ from motionlab.diffusion import (
     token_rows,
     x0_entropy,
 )
+from motionlab.diffusion.diagnostics import EntropyCurve, MarkdownTable, entropy_table, eta_distances, token_statistics
+from motionlab.estimate import Estimate
 
 K, T = 6, 8
 ROWS = torch.tensor([[0, 0, 1, 2, 2, 2], [3, 3, -1, -1, -1, -1], [5, 4, 5, -1, -1, -1]])
@@ -179,3 +181,52 @@ def test_dynamic_uniform_tv_grows_with_eta_and_with_t():
     assert (tv[:, 1:] >= tv[:, :-1] - 1e-12).all()  # the difference accumulates over the steps
     with pytest.raises(ValueError, match="etas"):
         dynamic_uniform_tv(get_schedule(T=T), _codebook(), [])
+
+
+# ------------------------------------------------------------------------------------------ renderers
+
+
+def test_token_statistics_are_the_histogram_tv_and_the_repeat_rate():
+    real = [torch.tensor([0, 1, 2, 3]), torch.tensor([4, 5])]
+    stats = token_statistics(ROWS, real, K)
+    assert stats == {"hist_tv": histogram_tv(ROWS, real, K), "repeat_rate": adjacent_repeat_rate(ROWS)}
+    assert token_statistics(real, real, K)["hist_tv"] == 0.0
+
+
+def test_markdown_table_renders_header_rule_and_cells():
+    table = MarkdownTable.of(["", "a", "b"], [["row", Estimate(1.0, 0.5, 3), "–"]])
+    assert str(table).splitlines() == ["|  | a | b |", "|---|---:|---:|", "| row | 1.00 ± 0.50 | – |"]
+    assert table._repr_markdown_() == str(table)
+
+
+def test_entropy_table_reads_each_curve_at_one_step():
+    timesteps = (1, 4)
+    curve = EntropyCurve(timesteps, torch.tensor([0.5, 1.25]), torch.tensor([2.0, 3.5]), 0.0, "text")
+    lines = str(entropy_table({"s = 0": curve}, 4, references={"code frequencies": 1.7})).splitlines()
+    assert "x_4" in lines[0] and lines[2] == "| s = 0 | 1.25 | 3.50 |" and lines[3] == "| code frequencies | 1.70 | – |"
+    with pytest.raises(ValueError):
+        entropy_table({"s = 0": curve}, 3)  # a step the curve was not measured at
+
+
+def test_eta_distances_hold_the_tv_the_cap_and_the_table():
+    schedule, etas = get_schedule(T=T), [0.5, 4.0, 64.0]
+    weights = torch.tensor([3.0, 1.0, 1.0, 1.0, 1.0, 1.0])
+    distances = eta_distances(schedule, _codebook(), etas, weights=weights)
+    np.testing.assert_array_equal(distances.largest.numpy(), dynamic_uniform_tv(schedule, _codebook(), etas).numpy())
+    mean = dynamic_uniform_tv(schedule, _codebook(), etas, reduce="mean", weights=weights)
+    np.testing.assert_array_equal(distances.mean.numpy(), mean.numpy())
+    assert distances.at(0.0) == 0.0 and distances.at(4.0) == float(distances.largest[1].max())
+    assert distances.cap_T == pytest.approx(float(schedule.kbeta_bar[-1]))
+    half = [e for e in etas if distances.at(e) >= 0.5 * distances.cap_T]
+    assert distances.half_cap() == (half[0] if half else None)
+    lines = distances.to_markdown().splitlines()
+    assert len(lines) == 2 + len(etas) and lines[3].startswith(f"| 4 | {distances.at(4.0):.4f} | ")
+    swept = distances.with_column("FID", {0.0: Estimate(2.0, 0.5, 3), 4.0: 1.5})
+    lines = swept.to_markdown().splitlines()
+    assert lines[0].endswith("| FID |") and lines[2] == "| 0 | 0.0000 | 0.0 % | 2.00 ± 0.50 |" and len(lines) == 4
+    sentence = distances.describe(0.5, others=(4.0,))
+    assert f"moves at most {distances.at(0.5):.4f}" in sentence and f"η = 4: {distances.at(4.0):.4f}" in sentence
+    with pytest.raises(KeyError, match="not measured"):
+        distances.at(2.0)
+    with pytest.raises(ValueError, match="positive"):
+        eta_distances(schedule, _codebook(), [0.0, 1.0])

@@ -1,4 +1,5 @@
-"""The reconstruction setting: batching by length changes nothing, seeds fix decodes, scores are right at 0."""
+"""The reconstruction setting: batching by length changes nothing, seeds fix decodes, scores are right at 0; the
+helpers chapter 05 shows its example and times its decoders with."""
 
 from __future__ import annotations
 
@@ -11,9 +12,14 @@ from motionlab.flow import DisCoRDDecoder, discord_config
 from motionlab.flow.reconstruction import (
     ReconstructionScores,
     decode_clips,
+    ground_truth_joints,
+    joints_of,
     length_batches,
+    median_example,
+    reconstructed_joints,
     reconstruction_scores,
     time_calls,
+    timing_batch,
 )
 from motionlab.tokenizers import build_tokenizer, rvq_config
 
@@ -120,3 +126,54 @@ def test_count_flops_counts_matrix_products_and_convolutions():
     assert count_flops(lambda: torch.zeros(5).relu()) == 0  # element-wise work is not counted
     twice = count_flops(lambda: (linear(torch.zeros(3, 10)), linear(torch.zeros(3, 10))))
     assert twice == 2 * count_flops(lambda: linear(torch.zeros(3, 10)))
+
+
+def test_timing_batch_is_the_longest_clips_cropped_to_one_length(raw_clips, tokenizer):
+    clips = normalised(raw_clips)  # 40, 47, 54, 61 frames
+    ids = timing_batch(clips, tokenizer, size=2)  # the two longest, 54 and 61, cropped to 52 frames (13 tokens)
+    assert tuple(ids.shape[:2]) == (2, 13)
+    crop = torch.as_tensor(np.stack([c[:52] for c in clips[2:]]))
+    assert torch.equal(ids, tokenizer.encode(crop))
+    assert timing_batch(clips, tokenizer).shape[:2] == (4, 10)  # fewer clips than the batch: all of them, 40 frames
+    with pytest.raises(ValueError, match="size"):
+        timing_batch(clips, tokenizer, size=0)
+
+
+def test_median_example_takes_the_median_gain_among_long_clips(raw_clips):
+    gt = joints_of(raw_clips)  # 40, 47, 54, 61 frames
+    rng = np.random.default_rng(1)
+    worse = [g + rng.normal(0.0, s, g.shape) for g, s in zip(gt, (0.001, 0.002, 0.004, 0.008))]
+    # b is the ground truth: the gain sJPE(a) - sJPE(b) is a's sJPE, which grows with the noise (clip by clip)
+    assert median_example(worse, gt, gt, min_frames=1) == 2  # gains of 4 clips: the upper median, clip 2
+    assert median_example(worse, gt, gt, min_frames=50) == 3  # clips 2 and 3 are long enough: the upper one
+    assert median_example(worse, gt, gt, min_frames=1000) == 2  # none is that long: all clips count
+    with pytest.raises(ValueError, match="as many clips"):
+        median_example(worse[:2], gt, gt)
+
+
+def test_split_joints_are_the_evaluations_ground_truth_and_decodes(tokenizer):
+    from motionlab.data import load_dataset
+
+    dataset = load_dataset(profile="smoke", seed=0)
+    clips = list(dataset.split("test"))[:3]
+    gt = ground_truth_joints(dataset, tokenizer, limit=3)
+    assert [len(g) for g in gt] == [len(c.features) // 4 * 4 for c in clips]
+    recon = decode_clips([dataset.normalizer.normalize(c.features) for c in clips], tokenizer)
+    expected = joints_of([dataset.normalizer.denormalize(r) for r in recon])
+    for got, want in zip(reconstructed_joints(dataset, tokenizer, limit=3), expected):
+        np.testing.assert_allclose(got, want, atol=1e-5)
+    one = reconstructed_joints(dataset, tokenizer, limit=3, clips=[1])
+    assert len(one) == 1 and one[0].shape == expected[1].shape
+    assert ground_truth_joints(dataset, tokenizer, clips=[1])[0].shape == gt[1].shape
+    with pytest.raises(ValueError, match="no clips"):
+        ground_truth_joints(dataset, tokenizer, clips=[])
+
+
+def test_scores_reuse_the_joints_they_are_given(raw_clips):
+    from motionlab.metrics import ClipJoints
+
+    noisy = [c + 0.01 for c in raw_clips]
+    given = reconstruction_scores(noisy, raw_clips, pred_joints=ClipJoints.from_features(noisy))
+    assert given.as_dict() == pytest.approx(reconstruction_scores(noisy, raw_clips).as_dict(), nan_ok=True)
+    with pytest.raises(ValueError, match="clip lengths differ"):
+        reconstruction_scores(noisy, raw_clips, pred_joints=ClipJoints.from_features(raw_clips[::-1]))

@@ -1,13 +1,30 @@
-"""Reading decoder-sweep results: estimates over sampling seeds, the best setting, budget curves."""
+"""Reading decoder-sweep results: estimates over sampling seeds, the best setting, budget curves, and the tables and
+sentences chapter 05 shows them with."""
 
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import pytest
 
 from motionlab.flow import discord_config
-from motionlab.flow.sweep import best_setting, budget_curve, crossing, estimate, load_sweep, sweep_rows
+from motionlab.flow.sweep import (
+    FEED_FORWARD,
+    GROUND_TRUTH,
+    best_setting,
+    budget_curve,
+    crossing,
+    crossing_sentence,
+    estimate,
+    load_sweep,
+    matches_setting,
+    sampling_of,
+    settings_table,
+    sweep_findings,
+    sweep_rows,
+    sweep_table,
+)
 from motionlab.flow.training import noise_floor
 from motionlab.metrics import mean_ci
 
@@ -81,3 +98,85 @@ def test_crossing_is_measured_between_checkpoints_or_extrapolated():
     assert crossing(seconds, np.array([2.0, 2.1, 2.2]), 1.5) == (None, False)
     with pytest.raises(ValueError, match="two checkpoints"):
         crossing(seconds[:1], values[:1], 1.0)
+
+
+def _study(sweep_folder):
+    sweep = load_sweep(sweep_folder)
+    for name, result in sweep.items():  # what the sweep script writes beside the checkpoints
+        result.update(
+            variant=name,
+            overrides={"prediction": name},
+            clips=5,
+            dataset="data-1",
+            config={"train_steps": 20, "batch_size": 32},
+            feed_forward={"sjpe": 1.25, "noise_sjpe": 0.6, "static_sjpe": 0.65, "fid": 0.5, "joint_jerk": 90.0},
+            ground_truth={"sjpe": 0.0, "noise_sjpe": 0.0, "static_sjpe": 0.0, "fid": float("nan"), "joint_jerk": 80.0},
+        )
+    return sweep
+
+
+def test_sweep_table_rows_references_and_notes(sweep_folder):
+    table = sweep_table(_study(sweep_folder))
+    assert table.labels == ["v, T1", "v, T0", "x, T1", FEED_FORWARD, GROUND_TRUTH]
+    assert table.columns == ("steps", "sJPE", "Noise sJPE", "Static sJPE", "FID", "joint jerk (m/s³)", "seed spread")
+    assert table.cell("x, T1", "sJPE") == estimate(_study(sweep_folder)["x"], "T1", "sjpe")
+    assert table.cell("x, T1", "steps") == 20 and table.cell("x, T1", "joint jerk (m/s³)") == 100.0
+    assert table.cell(GROUND_TRUTH, "FID") is None and table.cell(FEED_FORWARD, "seed spread") == 0.0
+    markdown = table.to_markdown()
+    assert "| x, T1 | 20 | 1.30 ± 0.25 |" in markdown and "over 3 sampling seeds" in markdown
+    assert f"saw {481_896 * 768 / (20 * 32):,.0f}× more windows" in markdown
+    small = sweep_table(_study(sweep_folder), samplings=["T0"], columns=("minutes", "sjpe"), references=False)
+    assert (
+        small.labels == ["v, T0"] and small.columns == ("minutes", "sJPE") and small.cell("v, T0", "minutes") == 10 / 60
+    )
+    with pytest.raises(ValueError, match="unknown sweep columns"):
+        sweep_table(_study(sweep_folder), columns=("sJPE",))
+    with pytest.raises(ValueError, match="none of the variants"):
+        sweep_table(_study(sweep_folder), variants=["w"])
+    with pytest.raises(ValueError, match="no \\(variant, sampling\\)"):
+        sweep_table(_study(sweep_folder), samplings=["T9"])
+
+
+def test_sweep_findings_compare_rows_by_the_one_rule(sweep_folder):
+    table = sweep_table(_study(sweep_folder))
+    pairs = [("x, T1", "v, T1", "x instead of v"), ("v, T0", "v, T1", "temperature 0"), ("w, T1", "v, T1", "absent")]
+    said = sweep_findings(table, pairs, columns=("sJPE", "FID"))
+    lines = str(said).splitlines()
+    assert len(lines) == 2  # the pair the sweep did not run is left out
+    assert lines[0].startswith("- x instead of v: sJPE: x, T1 1.30 ± 0.25 is lower than v, T1 2.10 ± 0.25")
+    assert "FID: x, T1 1.00 and v, T1 1.00 are not distinguishable at 95%" in lines[0]
+    assert lines[1].startswith("- temperature 0: sJPE: v, T0 1.50 is lower than") and said._repr_markdown_() == said
+
+
+def test_the_setting_a_config_samples_and_trains_with(sweep_folder):
+    study = _study(sweep_folder)
+    x = discord_config("laptop", prediction="x", temperature=0.0)
+    assert sampling_of(x) == "T0" and sampling_of(discord_config("smoke")) == "T1"
+    assert sampling_of(discord_config("laptop", prediction="x", temperature=0.5, final_prediction=True)) == "T0.5-final"
+    assert sampling_of(discord_config("smoke", spacing="data_dense")) == "T1-dense"
+    assert matches_setting(x, study["x"], "T0") and not matches_setting(x, study["v"], "T0")
+    assert not matches_setting(x, study["x"], "T1")
+    laptop = discord_config("laptop")  # the committed sweep's winner, as the laptop chapter asserts
+    winner = load_sweep(Path(__file__).resolve().parents[2] / "book" / "data" / "discord_sweep" / "embedded-v2")
+    variant, sampling = best_setting(winner, max_budget=min(r["budget_s"] for r in winner.values()))
+    assert matches_setting(laptop, winner[variant], sampling)
+
+
+def test_crossing_sentence_says_measured_extrapolated_or_none(sweep_folder):
+    result = _study(sweep_folder)["v"]  # sJPE 3.0 after 5 s, 2.1 after 10 s
+    measured = crossing_sentence(result, "T1", 2.5)
+    assert "falls below the feed-forward decoder's (2.500)" in measured and "(measured, between two" in measured
+    guessed = crossing_sentence(result, "T1", 1.0, "sjpe")
+    assert "stays above" in guessed and "an extrapolation, not a measurement" in guessed
+    result["checkpoints"][-1]["samplings"]["T1"] = _runs(3.5)  # rising: no crossing in sight
+    assert crossing_sentence(result, "T1", 1.0).endswith("no crossing in sight.")
+    assert "`v` at T1" in crossing_sentence(result, "T1", 1.0)
+
+
+def test_settings_table_sets_a_run_beside_the_paper():
+    table = settings_table(discord_config("smoke"))
+    assert table.columns == ("this run", "DisCoRD (Table A)")
+    assert table.cell("parameters", "DisCoRD (Table A)") == "66.9 M"
+    assert table.cell("steps (warm-up)", "DisCoRD (Table A)") == "481,896 (48,190)"
+    assert table.cell("decode default", "DisCoRD (Table A)") == "15 midpoint steps (30 evaluations)"
+    assert table.cell("decode default", "this run") == "4 euler steps (4 evaluations)"

@@ -12,8 +12,11 @@ from motionlab.flow.toy import (
     TOY_DISTRIBUTIONS,
     ToyFlowConfig,
     build_toy_flow,
+    energy_by_budget,
     energy_distance,
+    energy_table,
     flow_trajectory,
+    sample_at_budget,
     sample_toy,
     straightness,
     toy_flow_config,
@@ -170,3 +173,64 @@ def test_energy_distance_grows_with_the_mismatch():
         energy_distance(a, torch.zeros(3, 3))
     with pytest.raises(ValueError, match="b must"):
         energy_distance(a, torch.zeros(3))
+
+
+# ----------------------------------------------------------------------------- budgets and the energy grid
+
+
+def test_sample_at_budget_spends_exactly_the_budget():
+    model = build_toy_flow(ToyFlowConfig(hidden=16))
+    x0 = sample_noise((5, 2), gen(3))
+    calls = []
+
+    def counting(x, t, cond):
+        calls.append(1)
+        return model(x, t, cond)
+
+    for nfe, solver, steps in [(1, "euler", 1), (4, "euler", 4), (2, "midpoint", 1), (8, "midpoint", 4)]:
+        calls.clear()
+        x = sample_at_budget(counting, x0, nfe, solver)
+        assert len(calls) == nfe
+        with torch.no_grad():
+            torch.testing.assert_close(x, sample(model, x0, steps, solver))
+    assert sample_at_budget(model, x0, 1, "midpoint") is None and sample_at_budget(model, x0, 5, "midpoint") is None
+    with pytest.raises(ValueError, match="nfe"):
+        sample_at_budget(model, x0, 0)
+    with pytest.raises(ValueError, match="solver"):
+        sample_at_budget(model, x0, 2, "rk4")
+
+
+def test_energy_by_budget_measures_every_field_solver_and_possible_budget():
+    uncond = build_toy_flow(ToyFlowConfig(hidden=16))
+    cond = build_toy_flow(ToyFlowConfig(hidden=16, conditional=True))
+    x0 = sample_noise((40, 2), gen(4))
+    ids = torch.randint(0, 8, (40,), generator=gen(5))
+    reference, _ = sample_toy("ring", 40, gen(6))
+    fields = {"u": (uncond, None), "c": (cond, ids)}
+    quality = energy_by_budget(fields, x0, reference, [1, 2, 4])
+    assert sorted(quality) == sorted(
+        [(n, "euler", k) for n in "uc" for k in (1, 2, 4)] + [(n, "midpoint", k) for n in "uc" for k in (2, 4)]
+    )
+    x = sample_at_budget(cond, x0, 4, "midpoint", ids)
+    assert quality["c", "midpoint", 4] == pytest.approx(energy_distance(x, reference).item())
+    assert energy_by_budget({"u": (uncond, None)}, x0, reference, [3], solvers=["midpoint"]) == {}
+    with pytest.raises(ValueError, match="at least one"):
+        energy_by_budget({}, x0, reference, [1])
+
+
+def test_energy_table_has_a_row_per_budget_and_a_column_per_field_and_solver():
+    quality = {("u", "euler", 1): 1.0, ("u", "euler", 2): 0.5, ("u", "midpoint", 2): 0.25, ("c", "euler", 1): 0.125}
+    table = energy_table(quality, floor=0.01, points=500)
+    assert table.labels == [1, 2] and table.columns == ("u, Euler", "u, midpoint", "c, Euler")
+    assert table.cell(1, "u, midpoint") is None and table.cell(2, "u, midpoint") == 0.25
+    lines = table.to_markdown().splitlines()
+    assert lines[:4] == [
+        "| NFE | u, Euler | u, midpoint | c, Euler |",
+        "|---|---:|---:|---:|",
+        "| 1 | 1.0000 | – | 0.1250 |",
+        "| 2 | 0.5000 | 0.2500 | – |",
+    ]
+    assert lines[-1] == "noise floor (two samples of the data, 500 points each): 0.0100"
+    assert not energy_table(quality).notes
+    with pytest.raises(ValueError, match="empty"):
+        energy_table({})

@@ -135,7 +135,9 @@ def test_mean_ci_and_estimate():
     assert str(est) == "0.12300 ± 0.00069" and est.n == 2  # two significant digits of the half-width
     assert f"{est:.3f}" == "0.123 ± 0.001" and f"{Estimate(0.5, 0.0, 3):.2f}" == "0.50 ± 0.00"  # fixed: tables
     assert str(Estimate(0.123, 0.004)) == "0.1230 ± 0.0040" and str(Estimate(0.2161)) == "0.216"
-    assert tuple(est) == (est.mean, est.half_width) and est.minus(est).half_width == pytest.approx(0.00069 * 2**0.5, 0.01)
+    assert tuple(est) == (est.mean, est.half_width) and est.minus(est).half_width == pytest.approx(
+        0.00069 * 2**0.5, 0.01
+    )
     runs = summarize_runs([{"fid": 0.1, "top1": 0.5}, {"fid": 0.3, "top1": 0.5}])
     assert runs["fid"].mean == pytest.approx(0.2) and runs["top1"].half_width == 0.0
     with pytest.raises(ValueError, match="empty"):

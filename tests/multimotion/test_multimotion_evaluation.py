@@ -9,19 +9,23 @@ from motionlab.data import Caption, MotionClip
 from motionlab.data.embedded import generate_clip
 from motionlab.metrics import log_jerk_batch, mean_ci, transition_log_jerk
 from motionlab.multimotion import (
+    GROUND_TRUTH_CONCAT,
+    GROUND_TRUTH_SINGLE,
     METRICS,
     MultiActionInstance,
+    MultiMotion,
     build_reference,
     evaluate_ground_truth_single,
+    evaluate_methods,
     evaluate_multimotion,
-    format_table,
     ground_truth_concat_jerk,
     ground_truth_jerks,
-    summarize,
+    segment_jerk,
     transition_feature_windows,
     transition_jerk,
     transition_profile,
 )
+from motionlab.multimotion.evaluation import _summary
 from motionlab.representation import joints_to_features, recover_from_ric
 
 FAMILIES = ("walk", "run", "wave", "jump", "squat", "bow")
@@ -137,16 +141,80 @@ def test_bad_inputs(setup):
         evaluate_multimotion(evaluator, motions, captions, reference, rng="zero")
 
 
-def test_summary_and_table():
+def test_repeats_become_estimates_without_their_nan_runs():
     runs = [{"fid": 1.0, "jerk": 1.2}, {"fid": 2.0, "jerk": float("nan")}, {"fid": 3.0, "jerk": 1.4}]
-    s = summarize(runs)
-    assert s["fid"] == mean_ci([1.0, 2.0, 3.0]) and s["jerk"] == mean_ci([1.2, 1.4])
-    table = format_table({"TPS": s, "GT (concat)": {"jerk": (1.37, 0.004)}}, metrics=("fid", "jerk"))
-    lines = table.splitlines()
-    assert lines[0] == "| method | fid | jerk |" and lines[2].startswith("| TPS | 2.000 ± ")
-    assert lines[3] == "| GT (concat) | - | 1.370 ± 0.004 |"
-    with pytest.raises(ValueError, match="empty"):
-        summarize([])
+    s = _summary(runs)
+    assert s["fid"] == mean_ci([1.0, 2.0, 3.0]) and s["jerk"] == mean_ci([1.2, 1.4])  # the NaN run is left out
+    lost = _summary([{"jerk": float("nan")}])["jerk"]
+    assert np.isnan(lost.mean) and lost.n == 0
+
+
+class NoisyConcat:
+    """A stand-in generator: each instance's real clips back to back, plus noise seeded by ``seed`` and the method."""
+
+    def __init__(self, instances):
+        self.by_texts = {tuple(inst.texts): inst for inst in instances}
+
+    def generate(self, texts, lengths, *, method, seed, **kw):
+        rng = np.random.default_rng([seed, len(method)])
+        out = []
+        for t in texts:
+            features, bounds = self.by_texts[tuple(t)].real_concat()
+            noisy = features + rng.normal(0, 0.01, features.shape).astype(np.float32)
+            out.append(MultiMotion(noisy, bounds, list(t), method))
+        return out
+
+
+def test_evaluate_methods_rows_and_the_samples_behind_them(setup):
+    _, instances, evaluator, reference = setup
+    gt = ground_truth_jerks(instances, rng=5)
+    samples, generated = {}, {}
+    methods = {"a": {"method": "tps"}, "b": {"method": "independent"}}
+    kw = dict(methods=methods, repeats=2, seed=3)
+    rows = evaluate_methods(
+        NoisyConcat(instances),
+        instances,
+        evaluator,
+        reference,
+        **kw,
+        ground_truth=gt,
+        with_segment_jerk=True,
+        samples=samples,
+        generated=generated,
+    )
+    assert list(rows) == [GROUND_TRUTH_SINGLE, GROUND_TRUTH_CONCAT, "a", "b"]
+    # the ground-truth Jerks are those of ground_truth_jerks, with intervals over windows and cuts
+    single, concat = rows[GROUND_TRUTH_SINGLE], rows[GROUND_TRUTH_CONCAT]
+    assert single["jerk"] == mean_ci(gt.single[np.isfinite(gt.single)]) and single["jerk"].n == gt.single.size
+    assert concat == {"jerk": mean_ci(gt.concat)} and single["segment_jerk"] == single["jerk"]
+    assert samples[GROUND_TRUTH_CONCAT] == {
+        "jerk": gt.concat.tolist(),
+        "cut_minus_inside": gt.cut_minus_inside.tolist(),
+    }
+    # the other ground-truth metrics: evaluate_ground_truth_single per repeat, rng = seed + r
+    truth = [evaluate_ground_truth_single(evaluator, instances, reference, rng=3 + r) for r in range(2)]
+    assert single["fid"] == mean_ci([t["fid"] for t in truth]) and samples[GROUND_TRUTH_SINGLE]["fid"] == [
+        t["fid"] for t in truth
+    ]
+    captions = [inst.captions for inst in instances]
+    for label in methods:
+        runs = generated[label]
+        assert len(runs) == 2 and all(len(motions) == len(instances) for motions in runs)
+        scores = [evaluate_multimotion(evaluator, runs[r], captions, reference, rng=3 + r) for r in range(2)]
+        inside = [float(np.nanmean(segment_jerk(runs[r], rng=3 + r))) for r in range(2)]
+        assert rows[label] == {**{k: mean_ci([s[k] for s in scores]) for k in METRICS}, "segment_jerk": mean_ci(inside)}
+        # Jerk per boundary: repeat by repeat, instance by instance, boundary by boundary
+        per_boundary = np.concatenate([transition_jerk(m.features, m.boundaries) for motions in runs for m in motions])
+        np.testing.assert_allclose(samples[label]["jerk"], per_boundary)
+        assert samples[label]["fid"] == [s["fid"] for s in scores]
+        assert samples[label]["segment_jerk"] == inside
+    assert len(samples["a"]["jerk"]) == len(samples["b"]["jerk"]) == 2 * sum(len(i.lengths) - 1 for i in instances)
+    # without ground_truth: measured on the instances themselves, rng = seed
+    plain = evaluate_methods(NoisyConcat(instances), instances, evaluator, reference, **kw)
+    assert plain[GROUND_TRUTH_SINGLE]["jerk"] == mean_ci(ground_truth_jerks(instances, rng=3).single)
+    assert "segment_jerk" not in plain["a"] and plain["a"] == {k: v for k, v in rows["a"].items() if k in METRICS}
+    with pytest.raises(ValueError, match="samples must be a dict"):
+        evaluate_methods(NoisyConcat(instances), instances, evaluator, reference, **kw, samples=[])
 
 
 def test_ground_truth_jerks_are_samples_of_the_two_table_rows(setup):

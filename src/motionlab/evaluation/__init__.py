@@ -47,6 +47,7 @@ from .table import (
     TASKS,
     EvaluationTable,
     check_json_path,
+    metric_label,
     write_json,
 )
 
@@ -70,6 +71,7 @@ __all__ = [
     "TextToMotionConfig",
     "available_memory",
     "check_json_path",
+    "metric_label",
     "default_repeats",
     "estimated_memory",
     "log",

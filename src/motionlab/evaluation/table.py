@@ -42,7 +42,27 @@ METRIC_LABELS = {
     "transition_fid": "Transition FID ↓",
     "transition_diversity": "Transition Diversity →",
     "jerk": "Jerk →",
+    "segment_jerk": "Jerk inside the actions →",
+    "cut_minus_inside": "cut − inside",
+    # the options' columns: DisCoRD Table E and the reconstruction extras, the sampled codes of Table 3
+    "joint_jerk": "joint jerk (m/s³) →",
+    "noise_sjpe_boundary_share": "Noise sJPE share on token boundaries",
+    "seconds": "time per batch (s) ↓",
+    "gflops": "GFLOPs per batch ↓",
+    "hist_tv": "code-histogram TV to real ↓",
+    "repeat_rate": "adjacent repeats",
 }
+
+
+def metric_label(metric: str) -> str:
+    """A column's header: :data:`METRIC_LABELS`, the Noise sJPE of token phase ``p`` (``noise_sjpe_phase<p>``), or
+    the metric's own name."""
+    if metric in METRIC_LABELS:
+        return METRIC_LABELS[metric]
+    if metric.startswith("noise_sjpe_phase") and metric[len("noise_sjpe_phase") :].isdigit():
+        p = int(metric[len("noise_sjpe_phase") :])
+        return "Noise sJPE on token boundaries ↓" if p == 0 else f"Noise sJPE, phase {p} ↓"
+    return metric
 
 
 # ----------------------------------------------------------------------------------------------- the table
@@ -85,7 +105,7 @@ class EvaluationTable:
     def to_markdown(self, digits: int = 3) -> str:
         """A Markdown table, ``mean ± half-width`` per cell (the mean alone in deterministic or one-run rows)."""
         lines = [
-            "| | " + " | ".join(METRIC_LABELS.get(m, m) for m in self.metrics) + " |",
+            "| | " + " | ".join(metric_label(m) for m in self.metrics) + " |",
             "|---|" + "---:|" * len(self.metrics),
         ]
         for name, row in self.rows.items():
@@ -136,7 +156,7 @@ class EvaluationTable:
         """``row_a`` against ``row_b`` on ``metric`` by the one rule (:func:`motionlab.report.compare`)."""
         from motionlab.report import compare
 
-        quantity = METRIC_LABELS.get(metric, metric).rstrip(" ↓↑→")
+        quantity = metric_label(metric).rstrip(" ↓↑→")
         return compare(
             self.estimate(row_a, metric),
             self.estimate(row_b, metric),
@@ -168,6 +188,27 @@ class EvaluationTable:
             raise ValueError(f"{row_a!r} has {a.size} {metric} samples and {row_b!r} {b.size}: they do not pair up")
         d = a - b
         return mean_ci(d[np.isfinite(d)])
+
+    def joined(self, other: EvaluationTable, prefix: str = "") -> EvaluationTable:
+        """This table with ``other``'s rows added after its own, named ``prefix + row``, with their :attr:`samples`
+        (which :meth:`with_rows` cannot carry): e.g. another model's or decoder's rows measured on the same data,
+        split and seed, so that :meth:`paired` pairs rows across the two evaluations. ``other``'s notes that this
+        table lacks are kept, introduced by the prefix."""
+        mine, theirs = (self.task, self.data, self.split, self.seed), (other.task, other.data, other.split, other.seed)
+        if mine != theirs:
+            raise ValueError(f"only tables of the same task, data, split and seed join: {mine} and {theirs}")
+        renamed = {prefix + name: cells for name, cells in other.rows.items()}
+        clash = [name for name in renamed if name in self.rows]
+        if clash:
+            raise ValueError(f"rows {clash} are in both tables; pass a prefix")
+        table = self.with_rows(renamed, deterministic=[prefix + name for name in other.deterministic])
+        samples = {
+            **self.samples,
+            **{prefix + name: dict(other.samples[name]) for name in other.rows if name in other.samples},
+        }
+        lead = f"{prefix.strip(' :')} rows: " if prefix.strip(" :") else ""
+        notes = self.notes + [lead + note for note in other.notes if note not in self.notes]
+        return replace(table, samples=samples, notes=notes)
 
     def to_json_dict(self) -> dict[str, Any]:
         """Plain JSON types; a non-finite number becomes ``null`` (JSON has no NaN)."""

@@ -19,6 +19,7 @@ Ablations (DisCoRD Table 6):
 
 from __future__ import annotations
 
+import torch
 from torch import Tensor, nn
 
 CONDITION_PROJECTIONS = ("stacked", "repeat", "transposed")
@@ -112,11 +113,45 @@ def frames_per_token_distinct(features: Tensor, q: int, atol: float = 1e-6) -> T
     return spread > atol
 
 
+@torch.no_grad()
+def token_influence(projection: nn.Module, n_tokens: int = 6, seed: int = 0, atol: float = 1e-6) -> Tensor:
+    """Which frames each token reaches: ``(N, q·N)`` bool, ``[n, f]`` true when bumping token ``n``'s code vector
+    (by 1 in every dimension) changes frame ``f``'s features by more than ``atol``.
+
+    The code vectors are one random draw (``seed``); the projection is linear, so the pattern does not depend on it.
+    """
+    if isinstance(n_tokens, bool) or not isinstance(n_tokens, int) or n_tokens < 1:
+        raise ValueError(f"n_tokens must be a positive int, got {n_tokens!r}")
+    d = getattr(projection, "code_dim", None)
+    if d is None:
+        raise ValueError(f"projection must come from make_condition_projection, got {type(projection).__name__}")
+    base = torch.randn(1, n_tokens, d, generator=torch.Generator().manual_seed(seed))  # (1, N, d)
+    reference = projection(base)  # (1, q·N, c)
+    rows = []
+    for n in range(n_tokens):
+        bumped = base.clone()
+        bumped[0, n] += 1.0
+        rows.append((projection(bumped) - reference).abs().amax(dim=-1)[0])  # (q·N,): largest change per frame
+    return torch.stack(rows) > atol
+
+
+def frames_reached_from_outside(influence: Tensor, q: int) -> Tensor:
+    """From :func:`token_influence`'s ``(N, q·N)``: ``(q·N,)`` bool, whether a token other than the frame's own
+    changes the frame (the token ↔ frame correspondence is broken there)."""
+    n_tokens, n_frames = influence.shape
+    if n_frames != q * n_tokens:
+        raise ValueError(f"influence must have shape (N, {q}·N), got {tuple(influence.shape)}")
+    own_token = torch.arange(n_frames) // q  # (q·N,)
+    return (influence & (own_token[None, :] != torch.arange(n_tokens)[:, None])).any(dim=0)
+
+
 __all__ = [
     "CONDITION_PROJECTIONS",
     "RepeatProjection",
     "StackedProjection",
     "TransposedConvProjection",
     "frames_per_token_distinct",
+    "frames_reached_from_outside",
     "make_condition_projection",
+    "token_influence",
 ]

@@ -124,14 +124,15 @@ def reconstruction_scores(
     embed: Callable[[list[np.ndarray]], np.ndarray] | None = None,
     gt_embeddings: np.ndarray | None = None,
     gt_joints: ClipJoints | None = None,
+    pred_joints: ClipJoints | None = None,
 ) -> ReconstructionScores:
     """Score reconstructions against their ground truth; both are lists of raw ``(T_i, D)`` features.
 
     ``embed`` (e.g. an evaluator's ``embed_motions``) maps raw clips to ``(N, d)`` embeddings for FID;
     pass ``gt_embeddings`` to reuse the ground truth's, and ``gt_joints`` (``ClipJoints.from_features(gt)``)
-    to reuse its joints. Without ``embed`` the FID is NaN. MPJPE pools every pose (pelvis-aligned,
-    millimetres); sJPE is the mean over clips, in both of the public code's variants (element, and ratio:
-    the paper's [0, 1] scale). Joints are recovered once per clip set, on real frames only.
+    and ``pred_joints`` (likewise) to reuse joints already recovered. Without ``embed`` the FID is NaN. MPJPE pools
+    every pose (pelvis-aligned, millimetres); sJPE is the mean over clips, in both of the public code's variants
+    (element, and ratio: the paper's [0, 1] scale). Joints are recovered once per clip set, on real frames only.
     """
     if len(pred_features) != len(gt_features) or len(pred_features) == 0:
         raise ValueError(f"need equal, non-zero numbers of clips, got {len(pred_features)} and {len(gt_features)}")
@@ -139,10 +140,10 @@ def reconstruction_scores(
         if np.shape(p) != np.shape(g):
             raise ValueError(f"clip {i}: prediction {np.shape(p)} and ground truth {np.shape(g)} differ in shape")
     skeleton = SKELETON_OF_DIM.get(int(np.shape(gt_features[0])[-1]), "t2m")
-    pred_joints = _clip_joints(pred_features)
+    pred_joints = _clip_joints(pred_features) if pred_joints is None else pred_joints
     gt_joints = _clip_joints(gt_features) if gt_joints is None else gt_joints
     if not np.array_equal(gt_joints.lengths, pred_joints.lengths):
-        raise ValueError("gt_joints are not the joints of gt_features: their clip lengths differ")
+        raise ValueError("gt_joints and pred_joints are not the joints of the clips: their clip lengths differ")
     to_mm = 1000.0 * get_skeleton(skeleton).meters_per_unit
     scored = sjpe_variants(pred_joints, gt_joints, skeleton)  # jerks computed once, both variants scored
     jerk, ratio = scored["element"], scored["ratio"]
@@ -165,7 +166,82 @@ def reconstruction_scores(
     )
 
 
+# ----------------------------------------------------------------------------- one split, as joints
+
+
+def _split_crops(dataset: Any, q: int, split: str, limit: int | None, clips: Sequence[int] | None) -> list[np.ndarray]:
+    """The raw features of the first ``limit`` clips of ``split`` (then only the indices ``clips``), whole tokens."""
+    chosen = list(dataset.split(split))[:limit]
+    if clips is not None:
+        chosen = [chosen[int(i)] for i in clips]
+    if not chosen:
+        raise ValueError(f"no clips chosen from the {split} split")
+    return [c.features[: len(c.features) // q * q] for c in chosen]
+
+
+def ground_truth_joints(
+    dataset: Any, tokenizer: Any, *, split: str = "test", limit: int | None = None, clips: Sequence[int] | None = None
+) -> list[np.ndarray]:
+    """Joints ``(T_i, J, 3)`` of the ground truth that :func:`reconstructed_joints` compares with: the first ``limit``
+    clips of ``split`` (or the indices ``clips`` among them), cropped to the tokenizer's whole tokens."""
+    return joints_of(_split_crops(dataset, int(tokenizer.downsample), split, limit, clips))
+
+
+def reconstructed_joints(
+    dataset: Any,
+    tokenizer: Any,
+    decoder: Any = None,
+    *,
+    split: str = "test",
+    limit: int | None = None,
+    clips: Sequence[int] | None = None,
+    steps: int | None = None,
+    solver: str | None = None,
+    seed: int = 0,
+) -> list[np.ndarray]:
+    """The same clips as :func:`ground_truth_joints`, through the tokens and back (:func:`decode_clips`, the
+    feed-forward decoder if ``decoder`` is None), de-normalised, as joints ``(T_i, J, 3)``.
+
+    With ``seed=repeat_seed(seed, 0)`` and the same ``limit`` these are the motions behind the first repeat of
+    :func:`motionlab.evaluation.evaluate_reconstruction`'s DisCoRD row (a batch's noise depends on which clips share it,
+    so ``clips`` decodes other noise than the whole split)."""
+    normalizer = dataset.normalizer
+    crops = _split_crops(dataset, int(tokenizer.downsample), split, limit, clips)
+    normalized = [normalizer.normalize(c) for c in crops]
+    recon = decode_clips(normalized, tokenizer, decoder, steps=steps, solver=solver, seed=seed)
+    return joints_of([normalizer.denormalize(r) for r in recon])
+
+
+def median_example(
+    joints_a: Sequence[np.ndarray], joints_b: Sequence[np.ndarray], gt: Sequence[np.ndarray], min_frames: int = 100
+) -> int:
+    """The clip a figure shows, chosen by a rule rather than by eye: among clips of at least ``min_frames`` frames
+    (all clips if none is that long), the one whose sJPE gain ``sJPE(a) − sJPE(b)`` is the median, a typical clip
+    rather than the best one. The arguments are joints ``(T_i, J, 3)``, clip by clip."""
+    from motionlab.metrics import sjpe_dataset
+
+    if not (len(joints_a) == len(joints_b) == len(gt)) or not len(gt):
+        raise ValueError(f"need as many clips of each, got {len(joints_a)}, {len(joints_b)} and {len(gt)}")
+    gain = sjpe_dataset(list(joints_a), list(gt)).sjpe_per_clip - sjpe_dataset(list(joints_b), list(gt)).sjpe_per_clip
+    long_enough = np.flatnonzero([len(g) >= min_frames for g in gt])
+    candidates = long_enough if long_enough.size else np.arange(len(gt))
+    return int(candidates[np.argsort(gain[candidates], kind="stable")[len(candidates) // 2]])
+
+
 # ----------------------------------------------------------------------------- timing
+
+
+def timing_batch(clips: Sequence[np.ndarray], tokenizer: Any, size: int = 32) -> torch.Tensor:
+    """Table E's timing input: the token ids ``(B, N[, R])`` of the ``size`` longest normalised clips (all of them if
+    fewer), each cropped to the shortest of those, in whole tokens, so that they form one batch."""
+    q = int(tokenizer.downsample)
+    crops = _check_clips(clips, int(tokenizer.feature_dim), q)
+    if size < 1:
+        raise ValueError(f"size must be >= 1, got {size}")
+    longest = np.argsort([len(c) for c in crops], kind="stable")[-size:]
+    frames = min(len(crops[i]) for i in longest)
+    with torch.no_grad():
+        return tokenizer.encode(torch.as_tensor(np.stack([crops[i][:frames] for i in longest])))
 
 
 def time_calls(fn: Callable[[], Any], repeats: int = 5, warmup: int = 1) -> np.ndarray:
@@ -199,8 +275,12 @@ __all__ = [
     "ReconstructionScores",
     "count_flops",
     "decode_clips",
+    "ground_truth_joints",
     "joints_of",
     "length_batches",
+    "median_example",
+    "reconstructed_joints",
     "reconstruction_scores",
     "time_calls",
+    "timing_batch",
 ]

@@ -8,13 +8,15 @@ its training through the shared :class:`~motionlab.train.Trainer` with the libra
 - :func:`energy_distance`: a distance between two point clouds that is zero iff their distributions agree.
 
 The samplers themselves are the library's (:func:`~motionlab.flow.sample`); :func:`flow_trajectory` runs the
-very same steppers but keeps every intermediate state, so a trajectory can be drawn.
+very same steppers but keeps every intermediate state, so a trajectory can be drawn, and :func:`sample_at_budget`
+calls ``sample`` with a given number of network evaluations. :func:`energy_by_budget` measures a grid of fields ×
+solvers × budgets, which :func:`energy_table` renders.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -29,6 +31,8 @@ from motionlab.flow.rectified_flow import (
     euler_step,
     flow_matching_loss,
     midpoint_step,
+    n_evaluations,
+    sample,
     time_grid,
 )
 from motionlab.profiles import get_profile
@@ -255,13 +259,73 @@ def energy_distance(a: Tensor, b: Tensor) -> Tensor:
     return 2 * torch.cdist(a, b).mean() - torch.cdist(a, a).mean() - torch.cdist(b, b).mean()
 
 
+@torch.no_grad()
+def sample_at_budget(
+    velocity_fn: VelocityFn, x0: Tensor, nfe: int, solver: str = "euler", cond: Any = None
+) -> Tensor | None:
+    """:func:`~motionlab.flow.sample` from ``x0`` with exactly ``nfe`` network evaluations, or ``None`` where
+    ``solver`` cannot spend that many (midpoint takes two per step: no odd budget)."""
+    if isinstance(nfe, bool) or not isinstance(nfe, int) or nfe < 1:
+        raise ValueError(f"nfe must be a positive int, got {nfe!r}")
+    per_step = n_evaluations(1, solver)  # validates the solver
+    if nfe % per_step:
+        return None
+    return sample(velocity_fn, x0, nfe // per_step, solver, cond)
+
+
+def energy_by_budget(
+    fields: Mapping[str, tuple[VelocityFn, Any]],
+    x0: Tensor,
+    reference: Tensor,
+    nfes: Sequence[int],
+    solvers: Sequence[str] = SOLVERS,
+) -> dict[tuple[str, str, int], float]:
+    """``{(field, solver, nfe): energy distance}`` of the samples each field (``name -> (velocity_fn, cond)``) draws
+    from the same start ``x0`` with each solver at each budget, to the sample ``reference`` of the data. Budgets a
+    solver cannot spend (:func:`sample_at_budget`) are left out."""
+    if not fields or not nfes:
+        raise ValueError("need at least one field and one budget")
+    quality = {}
+    for name, (velocity_fn, cond) in fields.items():
+        for solver in solvers:
+            for nfe in nfes:
+                x = sample_at_budget(velocity_fn, x0, nfe, solver, cond)
+                if x is not None:
+                    quality[name, solver, nfe] = energy_distance(x, reference).item()
+    return quality
+
+
+SOLVER_LABELS = {"euler": "Euler", "midpoint": "midpoint"}
+
+
+def energy_table(quality: Mapping[tuple[str, str, int], float], floor: float | None = None, points: int = 0):
+    """:func:`energy_by_budget`'s grid as a :class:`~motionlab.viz.tables.Table`: one row per budget (NFE), one
+    column per field and solver ("–" where the solver cannot spend that budget); under it the noise ``floor``
+    (the energy distance between two samples of the data, ``points`` each), when given."""
+    from motionlab.viz.tables import Table
+
+    if not quality:
+        raise ValueError("quality is empty")
+    columns = {(name, solver): f"{name}, {SOLVER_LABELS.get(solver, solver)}" for name, solver, _ in quality}
+    rows = {
+        nfe: {label: quality.get((*key, nfe)) for key, label in columns.items()}
+        for nfe in sorted({nfe for *_, nfe in quality})
+    }
+    notes = () if floor is None else (f"noise floor (two samples of the data, {points} points each): {floor:.4f}",)
+    labels = tuple(columns.values())
+    return Table("NFE", rows, columns=labels, notes=notes, formats=dict.fromkeys(labels, ".4f"))
+
+
 __all__ = [
     "TOY_DISTRIBUTIONS",
     "ToyFlowConfig",
     "ToyVelocityMLP",
     "build_toy_flow",
+    "energy_by_budget",
     "energy_distance",
+    "energy_table",
     "flow_trajectory",
+    "sample_at_budget",
     "sample_toy",
     "straightness",
     "toy_flow_config",

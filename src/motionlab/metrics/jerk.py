@@ -267,3 +267,45 @@ def ldlj_from_log_jerk(value, n_frames, time_unit: str = "frames", fps: float = 
         raise ValueError(f"n_frames must be at least 4, got {n_frames}")
     out = -np.asarray(value, dtype=np.float64) - 3.0 * np.log((frames.astype(np.int64) - 1) * dt)
     return float(out) if out.ndim == 0 else out
+
+
+# ---------------------------------------------------------------------------------------------------------
+# M2D2M Table 1's two rows of real motion: Eq. 10 inside real clips and on naive seams between them
+
+_PARTNER_STREAM = 300  # the partner permutations' seed stream: default_rng([seed, 300, r])
+
+
+def real_motion_log_jerk(
+    features: Sequence[np.ndarray], partners: int = 1, seed: int = 0, window: int = 40, n_joints: int = 22
+) -> tuple[np.ndarray, np.ndarray]:
+    """Eq. 10 (frames) of real motion, M2D2M Table 1's "single" and "concatenated" rows: ``(single, concatenated)``.
+
+    ``single[i]``: a ``window``-frame window centred in clip ``i`` (raw ``(T, D)`` features, joints recovered from
+    them). ``concatenated``: for each of ``partners`` random pairings (permutation ``r`` from
+    ``default_rng([seed, 300, r])``), clip ``a``'s features followed by its partner's, the window centred on the seam
+    (the root carries on from where the first clip stopped; the pose jumps); a clip paired with itself is skipped.
+    Windows in which nothing moves (NaN) are dropped from both.
+    """
+    from ..representation import recover_from_ric
+
+    if isinstance(partners, bool) or not isinstance(partners, int) or partners < 1:
+        raise ValueError(f"partners must be a positive int, got {partners!r}")
+    clips = [np.asarray(f) for f in features]
+    if len(clips) < 2:
+        raise ValueError(f"need at least 2 clips to pair, got {len(clips)}")
+    single = np.array(
+        [
+            transition_log_jerk(j, [len(j) // 2], window=window)[0]
+            for j in (recover_from_ric(f, n_joints) for f in clips)
+        ]
+    )
+    concatenated = []
+    for r in range(partners):
+        partner = np.random.default_rng([seed, _PARTNER_STREAM, r]).permutation(len(clips))
+        for a, b in enumerate(partner):
+            if a == b:
+                continue
+            joined = recover_from_ric(np.concatenate([clips[a], clips[b]]), n_joints)
+            concatenated.append(transition_log_jerk(joined, [len(clips[a])], window=window)[0])
+    concatenated = np.array(concatenated)
+    return single[np.isfinite(single)], concatenated[np.isfinite(concatenated)]

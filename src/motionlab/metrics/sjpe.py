@@ -26,10 +26,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import torch
 
+from ..estimate import Estimate
 from ..representation import get_skeleton
 from ._checks import check_joints
 from .jerk import finite_difference_jerk, squared_length
@@ -345,3 +347,167 @@ def sjpe_from_features(
             raise ValueError(f"{name} has {clips.n_joints}-joint features, not the {setting.n_joints} of {skeleton}")
         joints.append(clips)
     return sjpe_dataset(joints[0], joints[1], skeleton, variant)
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Reporting: what sJPE's halves (and FID) see of a controlled perturbation (chapter 06, DisCoRD Fig. 4)
+
+# Column headers of the tables below; other keys print as themselves.
+MEASUREMENT_LABELS = {
+    "disp_mm": "joint RMS shift (mm)",
+    "noise": "Noise sJPE",
+    "static": "Static sJPE",
+    "fid": "FID",
+    "top1": "top-1",
+    "top2": "top-2",
+    "top3": "top-3",
+    "mm_dist": "MM-Dist",
+    "diversity": "Diversity",
+}
+
+
+@dataclass(frozen=True)
+class MeasurementTable:
+    """Rows × columns of :class:`~motionlab.estimate.Estimate`, for reading: a cell prints as the estimate does
+    (two significant digits of its half-width, the value alone where it has none).
+
+    Unlike :class:`~motionlab.evaluation.EvaluationTable`'s fixed decimals, this shows columns that span orders of
+    magnitude (an FID of 1e-4 beside one of 3). A sweep's rows are its levels (numbers, printed with ``:g``).
+    """
+
+    index: str  # the header of the row-label column, e.g. "σ (normalised)"
+    rows: dict[Any, dict[str, Estimate]]
+    columns: tuple[str, ...] = ()  # default: every key of the rows, in first-seen order
+    notes: tuple[str, ...] = ()
+
+    def __post_init__(self):
+        if not self.rows:
+            raise ValueError("rows is empty")
+        if not self.columns:
+            object.__setattr__(self, "columns", tuple(dict.fromkeys(k for cells in self.rows.values() for k in cells)))
+
+    @property
+    def levels(self) -> list:
+        """The row labels (a sweep's levels), in order."""
+        return list(self.rows)
+
+    def estimate(self, row: Any, column: str) -> Estimate:
+        """The cell ``rows[row][column]``; a missing row or column is named with what the table has."""
+        if row not in self.rows:
+            raise KeyError(f"no row {row!r}; rows: {self.levels}")
+        if column not in self.rows[row]:
+            raise KeyError(f"row {row!r} has no {column!r}; it has {list(self.rows[row])}")
+        return self.rows[row][column]
+
+    def column(self, column: str) -> list[Estimate]:
+        """One column, row by row (rows lacking it are skipped)."""
+        return [cells[column] for cells in self.rows.values() if column in cells]
+
+    def trend(self, column: str, name: str = "", quantity: str | None = None):
+        """The column as a :func:`motionlab.report.trend` over the rows, each step judged by the one rule; a row is
+        named ``name`` + its label (e.g. ``name="σ = "``)."""
+        from motionlab.report import trend
+
+        names = [f"{name}{_label(row)}" for row, cells in self.rows.items() if column in cells]
+        return trend(self.column(column), names, quantity=quantity or MEASUREMENT_LABELS.get(column, column))
+
+    def to_markdown(self) -> str:
+        header = [self.index] + [MEASUREMENT_LABELS.get(c, c) for c in self.columns]
+        lines = ["| " + " | ".join(header) + " |", "|---|" + "---:|" * len(self.columns)]
+        for row, cells in self.rows.items():
+            values = [f"{cells[c]}" if c in cells else "–" for c in self.columns]
+            lines.append(f"| {_label(row)} | " + " | ".join(values) + " |")
+        return "\n".join(lines + [f"\n{note}" for note in self.notes])
+
+    def _repr_markdown_(self) -> str:
+        return self.to_markdown()
+
+
+def _label(row: Any) -> str:
+    return f"{row:g}" if isinstance(row, (float, int, np.floating, np.integer)) else str(row)
+
+
+def _features(features: Sequence, name: str) -> list[np.ndarray]:
+    if isinstance(features, np.ndarray) or len(features) == 0:
+        raise ValueError(f"{name} must be a non-empty list of raw (T, D) clips")
+    return [np.asarray(f) for f in features]
+
+
+def noise_sweep(
+    gt_features: Sequence[np.ndarray],
+    sigmas: Sequence[float],
+    normalizer: Any,
+    embed: Any,
+    *,
+    repeats: int,
+    seed: int = 0,
+    skeleton: str = "t2m",
+) -> MeasurementTable:
+    """DisCoRD Fig. 4 on real clips: frame-wise Gaussian noise of each ``σ`` (normalised units,
+    :func:`~motionlab.metrics.perturbations.add_frame_noise`), ``repeats`` draws per σ (draw ``r`` of level ``i``:
+    ``default_rng([seed, i, r])``), each scored as the evaluation scores a decode.
+
+    Columns: ``disp_mm``, the RMS displacement (mm) of the sJPE joints, to give σ a physical scale; ``noise`` and
+    ``static``, the sJPE halves against the clean clips; ``fid``, between the embeddings (``embed``: raw clips ->
+    ``(N, d)``, e.g. an evaluator's ``embed_motions``) of the clean and the noisy clips. ± is over the draws.
+    """
+    from motionlab.representation import recover_from_ric
+
+    from .distribution import fid
+    from .perturbations import add_frame_noise
+
+    if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1:
+        raise ValueError(f"repeats must be a positive int, got {repeats!r}")
+    if len(sigmas) == 0:
+        raise ValueError("sigmas is empty")
+    clean = _features(gt_features, "gt_features")
+    setting = sjpe_setting(skeleton)
+    gt_joints = [recover_from_ric(f, setting.n_joints) for f in clean]
+    gt_emb = embed(clean)
+    selected = list(setting.joints)
+    rows = {}
+    for i, sigma in enumerate(sigmas):
+        runs: dict[str, list[float]] = {"disp_mm": [], "noise": [], "static": [], "fid": []}
+        for r in range(repeats):
+            noisy = add_frame_noise(clean, sigma, normalizer, np.random.default_rng([seed, i, r]))
+            noisy_joints = [recover_from_ric(n, setting.n_joints) for n in noisy]  # once, for sJPE and the shift
+            score = sjpe_dataset(noisy_joints, gt_joints, skeleton)
+            shift = np.concatenate(
+                [
+                    np.linalg.norm(n[:, selected] - g[:, selected], axis=-1).ravel()
+                    for n, g in zip(noisy_joints, gt_joints)
+                ]
+            )
+            runs["disp_mm"].append(1000 * setting.to_metres * np.sqrt(np.mean(shift**2)))
+            runs["noise"].append(score.noise)
+            runs["static"].append(score.static)
+            runs["fid"].append(fid(gt_emb, embed(noisy)))
+        rows[float(sigma)] = {k: Estimate.from_values(v) for k, v in runs.items()}
+    note = f"± = 95% interval over {repeats} noise draws per σ (Student's t)."
+    return MeasurementTable("σ (normalised)", rows, notes=(note,))
+
+
+def smoothing_sweep(
+    gt_features: Sequence[np.ndarray], sigmas_frames: Sequence[float], embed: Any, *, skeleton: str = "t2m"
+) -> MeasurementTable:
+    """The mirror image of :func:`noise_sweep`: each clip blurred in time by a Gaussian of ``σ_t`` frames
+    (:func:`~motionlab.metrics.perturbations.smooth_in_time`). Deterministic, so the sJPE intervals are over clips;
+    ``fid`` is one number per level."""
+    from .distribution import fid
+    from .perturbations import smooth_in_time
+
+    if len(sigmas_frames) == 0:
+        raise ValueError("sigmas_frames is empty")
+    clean = _features(gt_features, "gt_features")
+    gt_emb = embed(clean)
+    rows = {}
+    for s in sigmas_frames:
+        smoothed = smooth_in_time(clean, s)
+        score = sjpe_from_features(smoothed, clean, skeleton=skeleton)
+        rows[float(s)] = {
+            "noise": Estimate.from_values(score.noise_per_clip),
+            "static": Estimate.from_values(score.static_per_clip),
+            "fid": Estimate(fid(gt_emb, embed(smoothed))),
+        }
+    note = f"± = 95% interval over {len(clean)} clips (Student's t); FID is one number per level."
+    return MeasurementTable("σ_t (frames)", rows, notes=(note,))

@@ -7,19 +7,20 @@ motions out, for a trained ``TextToMotion``), :mod:`.testset` and :mod:`.evaluat
 
 from .baselines import DEFAULT_TRANSITION, handshake_sample, handshake_windows, independent_sample, shortened_lengths
 from .evaluation import (
+    GROUND_TRUTH_CONCAT,
+    GROUND_TRUTH_SINGLE,
     METRICS,
     GroundTruthJerks,
     MultiMotionReference,
+    boundary_jerk_table,
     build_reference,
     evaluate_ground_truth_single,
     evaluate_methods,
     evaluate_multimotion,
-    format_table,
     ground_truth_concat_jerk,
     ground_truth_jerks,
     real_windows,
     segment_jerk,
-    summarize,
     transition_feature_windows,
     transition_jerk,
     transition_profile,
@@ -41,7 +42,10 @@ from .tps import (
 )
 
 __all__ = [
+    "boundary_jerk_table",
     "DEFAULT_TRANSITION",
+    "GROUND_TRUTH_CONCAT",
+    "GROUND_TRUTH_SINGLE",
     "JOINT_TEXTS",
     "JointCondition",
     "MAX_ACTIONS",
@@ -65,7 +69,6 @@ __all__ = [
     "evaluate_ground_truth_single",
     "evaluate_methods",
     "evaluate_multimotion",
-    "format_table",
     "GroundTruthJerks",
     "ground_truth_concat_jerk",
     "ground_truth_jerks",
@@ -80,7 +83,6 @@ __all__ = [
     "shortened_lengths",
     "single_action_pool",
     "split_segments",
-    "summarize",
     "text_tensors",
     "transition_feature_windows",
     "transition_jerk",

@@ -11,10 +11,11 @@
   recovered from the whole motion).
 * **References**: "ground truth (single)" scores the real clips of the test set as if generated and real
   windows as transitions; "ground truth (concat)" is the Jerk of the real clips played back to back
-  (the only number the paper reports for it).
+  (the only number the paper reports for it). :func:`ground_truth_jerks` gives both Jerks as samples, for intervals.
 
-One evaluation gives a dict of floats (:data:`METRICS`); repeat it (new seeds) and :func:`summarize` gives
-mean ± 95 % half-width per metric (:func:`motionlab.metrics.mean_ci`); :func:`format_table` prints rows.
+One evaluation gives a dict of floats (:data:`METRICS`); :func:`evaluate_methods` repeats it (new seeds) and gives
+mean ± 95 % half-width per metric (:class:`~motionlab.estimate.Estimate`). The table a chapter or ``motionlab
+evaluate multi`` prints is :func:`motionlab.evaluation.evaluate_multi`'s, built on :func:`evaluate_methods`.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from motionlab.estimate import Estimate
 from motionlab.metrics import diversity, fid, log_jerk_batch, mean_ci, retrieval_metrics, transition_log_jerk
 from motionlab.metrics import transition_windows as _windows
 from motionlab.multimotion.stitch import split_segments
@@ -32,6 +34,7 @@ from motionlab.representation import recover_from_ric
 
 METRICS = ("r_top3", "fid", "mm_dist", "diversity", "transition_fid", "transition_diversity", "jerk")
 DEFAULT_WINDOW = 40
+GROUND_TRUTH_SINGLE, GROUND_TRUTH_CONCAT = "Ground Truth (Single)", "Ground Truth (Concat)"  # the two reference rows
 
 
 def _parts(motion) -> tuple[np.ndarray, list[int]]:
@@ -61,6 +64,22 @@ def transition_feature_windows(features: np.ndarray, boundaries: Sequence[int], 
 def transition_jerk(features: np.ndarray, boundaries: Sequence[int], window: int = DEFAULT_WINDOW) -> np.ndarray:
     """Eq. 10 (frames) around every boundary of one motion, on joints recovered from all its features."""
     return transition_log_jerk(recover_from_ric(np.asarray(features, np.float32)), boundaries, window)
+
+
+def boundary_jerk_table(motions: Mapping, window: int = DEFAULT_WINDOW):
+    """Eq. 10 around every boundary of each named multi-motion (``.features``/``.boundaries`` or a pair), and their
+    mean: a :class:`~motionlab.viz.tables.Table` with one row per name, lower is smoother."""
+    from motionlab.viz.tables import Table
+
+    if not motions:
+        raise ValueError("motions is empty: pass {name: multi-motion}")
+    rows = {}
+    for name, motion in motions.items():
+        features, boundaries = _parts(motion)
+        jerk = transition_jerk(features, boundaries, window)
+        rows[name] = {**{f"boundary {i + 1}": float(j) for i, j in enumerate(jerk)}, "mean": float(np.mean(jerk))}
+    note = f"Jerk (M2D2M Eq. 10) in the {window} frames around each boundary; lower is smoother."
+    return Table("motion", rows, notes=(note,))
 
 
 def real_windows(clips: Sequence[np.ndarray], window: int, rng, n: int | None = None) -> list[np.ndarray]:
@@ -172,6 +191,12 @@ def evaluate_multimotion(
     ``motions[i]`` (``.features``/``.boundaries`` or a pair) was generated for ``captions[i]`` (one caption
     per action; ``Caption`` objects or what the evaluator's ``embed_texts`` takes).
     """
+    return _score(evaluator, motions, captions, reference, rng, batch_size, diversity_pairs)[0]
+
+
+def _score(evaluator, motions, captions, reference, rng, batch_size=32, diversity_pairs=300):
+    """:func:`evaluate_multimotion`'s scores and the Eq. 10 Jerk at every boundary, in motion and boundary order
+    (so that two methods generated for the same instances pair up boundary by boundary)."""
     rng = _rng(rng)
     if len(motions) == 0 or len(motions) != len(captions):
         raise ValueError(f"motions and captions must be non-empty and match, got {len(motions)} and {len(captions)}")
@@ -186,7 +211,7 @@ def evaluate_multimotion(
             windows += transition_feature_windows(features, boundaries, reference.window)
             jerks += transition_jerk(features, boundaries, reference.window).tolist()
     out = _individual(evaluator, segments, flat_captions, reference, rng, batch_size, diversity_pairs)
-    return {**out, **_transitions(evaluator, windows, jerks, reference, rng, diversity_pairs)}
+    return {**out, **_transitions(evaluator, windows, jerks, reference, rng, diversity_pairs)}, jerks
 
 
 def evaluate_ground_truth_single(
@@ -292,6 +317,19 @@ def segment_jerk(motions: Sequence, window: int = DEFAULT_WINDOW, *, rng) -> np.
     return np.concatenate(values)
 
 
+def _finite_estimate(values) -> Estimate:
+    """Mean ± 95 % half-width of the finite ``values`` (a static window or a too-short clip has no Eq. 10 value);
+    NaN with ``n = 0`` when none is finite."""
+    values = np.asarray(values, dtype=np.float64).reshape(-1)
+    values = values[np.isfinite(values)]
+    return mean_ci(values) if values.size else Estimate(float("nan"), float("nan"), 0)
+
+
+def _summary(runs: Sequence[Mapping[str, float]]) -> dict[str, Estimate]:
+    """Repeated evaluations -> {metric: Estimate} over the repeats (a repeat with a NaN metric is left out of it)."""
+    return {key: _finite_estimate([run[key] for run in runs]) for key in runs[0]}
+
+
 def evaluate_methods(
     generator,
     instances: Sequence,
@@ -302,63 +340,66 @@ def evaluate_methods(
     repeats: int = 3,
     seed: int = 0,
     generated: dict | None = None,
+    ground_truth: GroundTruthJerks | None = None,
+    with_segment_jerk: bool = False,
+    samples: dict | None = None,
     **sampling,
-) -> dict[str, dict[str, tuple[float, float]]]:
+) -> dict[str, dict[str, Estimate]]:
     """Table rows: the two ground truths, then every method generated ``repeats`` times (seeds ``seed + r``)
-    for all ``instances`` and scored with :func:`evaluate_multimotion` -> {row: {metric: (mean, ±95 %)}}.
+    for all ``instances`` and scored with :func:`evaluate_multimotion` -> {row: {metric: Estimate}}.
 
     ``generator`` has ``generate(texts, lengths, method=, seed=, **kw)`` (a :class:`MultiMotionGenerator`).
     ``methods``: method names, or {row label: options} with a ``"method"`` entry and per-row options, e.g.
     ``{"T_s = 90": {"method": "tps", "T_s": 90}, "SLERP": {"method": "slerp"}}``; ``sampling`` is shared.
-    ``generated``: a dict to receive the motions, ``{row label: [motions of repeat 0, 1, ...]}``, for plots
-    and further metrics (e.g. :func:`segment_jerk`) without sampling again.
+
+    The ground-truth rows' Jerks come from ``ground_truth`` (:func:`ground_truth_jerks`, e.g. of every instance of
+    the test set: real data costs nothing to score), by default from ``instances`` with ``rng=seed``; their other
+    metrics from :func:`evaluate_ground_truth_single` with ``rng=seed + r``. ``with_segment_jerk`` adds the column
+    ``segment_jerk``: :func:`segment_jerk` (``rng=seed + r``) averaged per repeat, the real clips' own Jerk for the
+    ground truth.
+
+    ``generated``: a dict to receive the motions, ``{row label: [motions of repeat 0, 1, ...]}``, for plots.
+    ``samples``: a dict to receive, per row and metric, the values behind each estimate, in an order shared across
+    rows: per repeat, except ``"jerk"`` of a method (every boundary, repeat by repeat, instance by instance, so two
+    methods pair up boundary by boundary), of Ground Truth (Single) (every window) and of Ground Truth (Concat)
+    (every cut; with ``"cut_minus_inside"``, each cut − the Jerk inside the two clips it joins).
     """
     if not isinstance(repeats, int) or repeats < 1:
         raise ValueError(f"repeats must be a positive int, got {repeats!r}")
-    if generated is not None and not isinstance(generated, dict):
-        raise ValueError(f"generated must be a dict (filled with the motions) or None, got {type(generated).__name__}")
+    for name, value in (("generated", generated), ("samples", samples)):
+        if value is not None and not isinstance(value, dict):
+            raise ValueError(f"{name} must be a dict (filled by the evaluation) or None, got {type(value).__name__}")
     rows_spec = dict(methods) if isinstance(methods, Mapping) else {m: {"method": m} for m in methods}
     if any("method" not in spec for spec in rows_spec.values()):
         raise ValueError("every entry of a methods mapping needs a 'method' option")
     texts = [inst.texts for inst in instances]
     lengths = [list(inst.lengths) for inst in instances]
     captions = [inst.captions for inst in instances]
+    gt = ground_truth_jerks(instances, reference.window, rng=seed) if ground_truth is None else ground_truth
     single = [evaluate_ground_truth_single(evaluator, instances, reference, rng=seed + r) for r in range(repeats)]
-    concat_jerk = ground_truth_concat_jerk(instances, reference.window)  # deterministic: no spread
-    rows = {"Ground Truth (Single)": summarize(single), "Ground Truth (Concat)": {"jerk": (concat_jerk, 0.0)}}
+    rows = {GROUND_TRUTH_SINGLE: _summary(single), GROUND_TRUTH_CONCAT: {"jerk": _finite_estimate(gt.concat)}}
+    rows[GROUND_TRUTH_SINGLE]["jerk"] = _finite_estimate(gt.single)  # windows inside the real clips, not per repeat
+    found = {
+        GROUND_TRUTH_SINGLE: {**{k: [run[k] for run in single] for k in single[0]}, "jerk": gt.single.tolist()},
+        GROUND_TRUTH_CONCAT: {"jerk": gt.concat.tolist(), "cut_minus_inside": gt.cut_minus_inside.tolist()},
+    }
+    if with_segment_jerk:  # inside real clips, the Jerk is the Ground Truth (Single) Jerk itself
+        rows[GROUND_TRUTH_SINGLE]["segment_jerk"] = rows[GROUND_TRUTH_SINGLE]["jerk"]
+        found[GROUND_TRUTH_SINGLE]["segment_jerk"] = found[GROUND_TRUTH_SINGLE]["jerk"]
     for label, spec in rows_spec.items():
         kw = {**sampling, **spec}
-        runs = []
+        runs, boundary_jerks = [], []
         for r in range(repeats):
             motions = generator.generate(texts, lengths, seed=seed + r, **kw)
-            runs.append(evaluate_multimotion(evaluator, motions, captions, reference, rng=seed + r))
+            scores, jerks = _score(evaluator, motions, captions, reference, seed + r)
+            if with_segment_jerk:
+                scores["segment_jerk"] = float(np.nanmean(segment_jerk(motions, reference.window, rng=seed + r)))
+            runs.append(scores)
+            boundary_jerks += jerks
             if generated is not None:
                 generated.setdefault(label, []).append(motions)
-        rows[label] = summarize(runs)
+        rows[label] = _summary(runs)
+        found[label] = {**{k: [run[k] for run in runs] for k in runs[0]}, "jerk": [float(j) for j in boundary_jerks]}
+    if samples is not None:
+        samples.update(found)
     return rows
-
-
-# ---------------------------------------------------------------------------------------------- reporting
-
-
-def summarize(runs: Sequence[Mapping[str, float]]) -> dict[str, tuple[float, float]]:
-    """Repeated evaluations -> {metric: (mean, 95 % half-width)} (NaN runs of a metric are left out)."""
-    if len(runs) == 0:
-        raise ValueError("runs is empty")
-    out = {}
-    for key in runs[0]:
-        values = [float(r[key]) for r in runs if np.isfinite(r[key])]
-        out[key] = mean_ci(values) if values else (float("nan"), float("nan"))
-    return out
-
-
-def format_table(
-    rows: Mapping[str, Mapping[str, tuple[float, float]]], metrics: Sequence[str] = METRICS, digits: int = 3
-) -> str:
-    """A Markdown table, one row per method (``summarize`` outputs); a missing metric prints as '-'."""
-    head = "| method | " + " | ".join(metrics) + " |\n|---|" + "---|" * len(metrics)
-    lines = [head]
-    for name, row in rows.items():
-        cells = [f"{row[m][0]:.{digits}f} ± {row[m][1]:.{digits}f}" if m in row else "-" for m in metrics]
-        lines.append(f"| {name} | " + " | ".join(cells) + " |")
-    return "\n".join(lines)

@@ -1,4 +1,5 @@
-"""Visualisation: stick-figure animations, trajectory/jerk plots, the feature layout.
+"""Visualisation: stick-figure animations, trajectory/jerk plots, the feature layout, training curves, 2-D codebooks
+and point clouds, and small tables for reading (:class:`~motionlab.viz.tables.Table`).
 
 The plotting functions are imported on first use: importing ``motionlab.viz.palette`` (what the HTML writer
 needs) must not start matplotlib, which costs about a second.
@@ -8,13 +9,20 @@ from importlib import import_module
 from typing import Any
 
 _WHERE = {
+    "plot_clouds": "plots",
+    "plot_codebook_snapshots": "plots",
     "plot_feature_layout": "plots",
+    "plot_history": "plots",
     "plot_trajectories": "plots",
+    "trajectory_explorer": "plots",
     "animate_motions": "skeleton",
     "plot_pose": "skeleton",
+    "Table": "tables",
+    "feature_differences": "tables",
+    "skeleton_table": "tables",
 }
 
-__all__ = ["animate_motions", "plot_feature_layout", "plot_pose", "plot_trajectories"]
+__all__ = sorted(_WHERE)
 
 
 def __getattr__(name: str) -> Any:

@@ -1,8 +1,9 @@
-"""Static plots: joint trajectories and their jerk, and the layout of the feature vector."""
+"""Static plots: joint trajectories and their jerk, the layout of the feature vector, training curves, 2-D codebooks
+and point clouds; and a widget to explore trajectories."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -89,3 +90,151 @@ def plot_trajectories(
     axes[0].set_title(f"{sk.joint_names[joint]}", fontsize=10)
     axes[0].legend(fontsize=8)
     return axes
+
+
+def plot_history(
+    histories: Mapping[str, Sequence[Mapping[str, float]]],
+    keys: Mapping[str, str] | Sequence[str],
+    *,
+    log: Sequence[str] = (),
+    xlabel: str = "step",
+    axes=None,
+    figsize: tuple[float, float] = (7.4, 2.4),
+):
+    """Training curves: one panel per logged quantity, one line per run.
+
+    ``histories`` maps a run's label to its logged rows (what :meth:`motionlab.train.Trainer.fit` returns: dicts with
+    ``"step"`` and the quantities); ``keys`` names the quantities to draw, or maps each to its y label. Rows that lack
+    a quantity (e.g. the validation rows of a training log) are skipped. Quantities in ``log`` get a log scale.
+    Returns the axes, one per key.
+    """
+    labels = dict(keys) if isinstance(keys, Mapping) else {k: k for k in keys}
+    if not histories or not labels:
+        raise ValueError("need at least one history and one key")
+    if axes is None:
+        _, axes = plt.subplots(1, len(labels), figsize=figsize, squeeze=False)
+    axes = np.atleast_1d(axes).ravel()
+    if len(axes) != len(labels):
+        raise ValueError(f"{len(labels)} keys need as many axes, got {len(axes)}")
+    for ax, (key, ylabel) in zip(axes, labels.items()):
+        drawn = 0
+        for name, history in histories.items():
+            rows = [row for row in history if key in row]
+            if rows:
+                ax.plot([row["step"] for row in rows], [row[key] for row in rows], label=name)
+                drawn += 1
+        if not drawn:
+            raise ValueError(f"no history logged {key!r}")
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+        if key in log:
+            ax.set_yscale("log")
+        ax.legend(fontsize=8)
+    return axes
+
+
+def plot_codebook_snapshots(
+    trace,
+    data_at: Callable[[int], np.ndarray],
+    axes=None,
+    label: str = "",
+    show_at: Sequence[int] = (10, 40, 100, 400),
+    lim: float = 1.4,
+):
+    """A 2-D codebook at a few steps of its training (the saved steps nearest above ``show_at``): the data of that
+    step in grey (``data_at(step) -> (N, 2)``), the codes in red. ``trace`` is a
+    :class:`~motionlab.tokenizers.analysis.CodebookTrace` (``steps``, ``codebooks``). Returns the axes."""
+    steps, codebooks = np.asarray(trace.steps), np.asarray(trace.codebooks)
+    if codebooks.ndim != 3 or codebooks.shape[-1] != 2:
+        raise ValueError(f"the trace must hold 2-D codebooks (S, K, 2), got {codebooks.shape}")
+    if axes is None:
+        _, axes = plt.subplots(1, len(show_at), figsize=(7.4, 2))
+    axes = np.atleast_1d(axes).ravel()
+    for ax, step in zip(axes, show_at, strict=True):
+        i = min(int(np.searchsorted(steps, step)), len(steps) - 1)
+        data = np.asarray(data_at(int(steps[i])))
+        ax.scatter(*data.T, s=2, c="#bbbbbb")
+        ax.scatter(*codebooks[i].T, s=14, c="#d62728")
+        ax.set_title(f"{label}, step {steps[i]}" if label else f"step {steps[i]}", fontsize=8)
+        ax.set_xlim(-lim, lim)
+        ax.set_ylim(-lim, lim)
+        ax.set_aspect("equal")
+        ax.set_xticks([])
+        ax.set_yticks([])
+    return axes
+
+
+def plot_clouds(
+    clouds: Mapping[str, np.ndarray | None],
+    axes=None,
+    *,
+    background: np.ndarray | None = None,
+    colors: np.ndarray | None = None,
+    point_size: float = 1.5,
+    alpha: float = 0.5,
+    lim: float = 3.2,
+    fontsize: float = 8,
+):
+    """2-D point clouds ``(N, 2)``, one panel each (titled by its key), on equal square axes ``[-lim, lim]²``.
+
+    ``background`` (e.g. a sample of the true distribution) is drawn in light grey under every cloud; ``colors``
+    (``(N,)`` class ids, at most 10) colour the points; a cloud of ``None`` marks a panel "not possible".
+    Returns the axes, in the order of ``clouds``.
+    """
+    if not clouds:
+        raise ValueError("clouds is empty")
+    if axes is None:
+        _, axes = plt.subplots(1, len(clouds), figsize=(7.4, 2), sharex=True, sharey=True, squeeze=False)
+    axes = np.atleast_1d(axes).ravel()
+    if len(axes) != len(clouds):
+        raise ValueError(f"{len(clouds)} clouds need as many axes, got {len(axes)}")
+    for ax, (title, points) in zip(axes, clouds.items()):
+        if background is not None:
+            ax.scatter(*np.asarray(background)[:, :2].T, s=1, color="#ccc")
+        if points is None:
+            ax.text(0, 0, "not possible", ha="center", va="center", fontsize=fontsize)
+        else:
+            xy = np.asarray(points)
+            if xy.ndim != 2 or xy.shape[1] != 2:
+                raise ValueError(f"cloud {title!r} must have shape (N, 2), got {xy.shape}")
+            style = {"c": colors, "cmap": "tab10", "vmin": 0, "vmax": 9} if colors is not None else {"color": "#1f77b4"}
+            ax.scatter(xy[:, 0], xy[:, 1], s=point_size, alpha=alpha, **style)
+        ax.set_title(title, fontsize=fontsize)
+        ax.set_aspect("equal")
+        ax.set_xlim(-lim, lim)
+        ax.set_ylim(-lim, lim)
+    return axes
+
+
+def trajectory_explorer(
+    motions_of: Callable[[int], Mapping[str, np.ndarray]],
+    choices: Sequence[str],
+    joint: int,
+    skeleton: str | Skeleton = "t2m",
+    axis: int = 1,
+    figsize: tuple[float, float] = (7.4, 3.0),
+) -> None:
+    """A widget over :func:`plot_trajectories`: pick a clip (``choices[i]`` names clip ``i``), a joint and an axis;
+    ``motions_of(i)`` gives that clip's motions (label -> joints ``(T, J, 3)``). ``joint`` and ``axis`` are the
+    defaults shown. Displays the widget (and the figure of the default choice) in the running notebook."""
+    import ipywidgets as widgets
+
+    sk = get_skeleton(skeleton)
+    if not choices:
+        raise ValueError("choices is empty")
+    if not 0 <= joint < sk.n_joints or axis not in (0, 1, 2):
+        raise ValueError(f"need joint in [0, {sk.n_joints}) and axis in (0, 1, 2), got {joint} and {axis}")
+
+    def show(clip: int, joint: int, axis: int) -> None:
+        _, axes = plt.subplots(2, 1, figsize=figsize, sharex=True)
+        plot_trajectories(motions_of(clip), joint, sk, axis=axis, axes=axes)
+        plt.show()
+
+    widgets.interact(
+        show,
+        clip=widgets.Dropdown(options=[(name, i) for i, name in enumerate(choices)], value=0, description="clip"),
+        joint=widgets.Dropdown(
+            options=[(n, j) for j, n in enumerate(sk.joint_names)], value=joint, description="joint"
+        ),
+        axis=widgets.ToggleButtons(options=[("x", 0), ("y (up)", 1), ("z", 2)], value=axis, description="axis"),
+    )
