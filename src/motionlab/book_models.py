@@ -1,8 +1,8 @@
 """Every model the book's chapters load, as one plan: what to train, in which order, how long it takes.
 
 ``motionlab train book`` runs this plan (see :mod:`motionlab.train.plan`) before the chapters execute, so a
-chapter only loads from the cache. Each recipe below makes the *same call* a chapter makes (same function,
-same profile, same config), so the cache keys agree by construction; a test checks that the chapters find
+chapter only loads from the cache. Each job's recipe is :func:`motionlab.models.load` of the job's name, the
+*same call* a chapter makes, so the cache keys agree by construction; a test checks that the chapters find
 everything cached after the plan ran.
 
     data ─┬─ tokenizer/vq ──┬─ t2m/dynamic, t2m/uniform           (chapters 07, 08, 09)
@@ -27,8 +27,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 from functools import lru_cache, partial
 
-from .diffusion.training import PAPER_ETA
-from .multimotion import MULTI_MOTION_ETA
 from .profiles import get_profile
 from .train.cache import NotCached, cache_probe
 from .train.plan import Job
@@ -129,47 +127,16 @@ def make_data(profile: str, seed: int, data: str | None = None) -> None:
     book_dataset(profile, seed, data)
 
 
-def make_tokenizer(profile: str, seed: int, kind: str, data: str | None = None) -> None:
-    from .tokenizers import tokenizer_for_dataset
+def make_model(profile: str, seed: int, name: str, data: str | None = None, overrides: dict | None = None) -> None:
+    """Train (or find cached) the book's model ``name``: :func:`motionlab.models.load`, the call a chapter makes.
 
-    tokenizer_for_dataset(kind, book_dataset(profile, seed, data), profile)
+    ``seed`` is the data seed and a DisCoRD decoder's or toy flow's training seed; ``overrides`` change a DisCoRD
+    decoder's config. The toy flows never read motion, so they do not load the dataset.
+    """
+    from . import models  # lazy: models imports this module inside its functions
 
-
-def make_toy_flow(profile: str, seed: int, conditional: bool, data: str | None = None) -> None:
-    """Chapter 03's 2-D toy flows (``data`` is accepted for a uniform signature; they never read motion)."""
-    from .flow.toy import toy_flow_config, train_or_load_toy_flow
-
-    train_or_load_toy_flow(
-        toy_flow_config(profile, distribution="ring", conditional=conditional, seed=seed), profile=profile
-    )
-
-
-def make_evaluator(profile: str, seed: int, data: str | None = None) -> None:
-    from .metrics.evaluator_training import load_or_train_evaluator
-
-    load_or_train_evaluator(book_dataset(profile, seed, data), profile)
-
-
-def make_discord(
-    profile: str,
-    seed: int,
-    tokens: str,
-    projection: str | None = None,
-    data: str | None = None,
-    overrides: dict | None = None,
-) -> None:
-    """Train (or find cached) a DisCoRD decoder: the profile's own (``projection=None``, chapters 05 and 09) or one
-    of chapter 04's ablation decoders."""
-    from .flow import discord_config, train_or_load_discord
-    from .tokenizers import tokenizer_for_dataset
-
-    dataset = book_dataset(profile, seed, data)
-    tokenizer = tokenizer_for_dataset(tokens, dataset, profile)
-    if projection is None:
-        config = discord_config(profile, tokenizer=tokenizer, seed=seed, **(overrides or {}))
-    else:
-        config = projection_config(profile, tokenizer, projection, seed, **(overrides or {}))
-    train_or_load_discord(dataset, tokenizer, profile, config=config)
+    dataset = None if name.startswith("toy_flow/") else book_dataset(profile, seed, data)
+    models.load(name, dataset, profile, seed=seed, **(overrides or {}))
 
 
 # Training steps of chapter 04's projection ablation, where they differ from the profile's DisCoRD decoder.
@@ -184,20 +151,6 @@ def projection_config(profile: str, tokenizer, projection: str = "stacked", seed
     steps = ABLATION_STEPS.get(get_profile(profile))
     budget = {"train_steps": steps, "warmup_steps": max(1, steps // 20)} if steps else {}
     return discord_config(profile, tokenizer=tokenizer, projection=projection, seed=seed, **{**budget, **overrides})
-
-
-def make_text_to_motion(
-    profile: str,
-    seed: int,
-    eta: float | None,
-    training_seed: int | None = None,
-    data: str | None = None,
-    distance: str = "l2_rank",
-) -> None:
-    from .diffusion import text_to_motion_for_dataset
-
-    dataset = book_dataset(profile, seed, data)
-    text_to_motion_for_dataset(dataset, profile, eta=eta, seed=training_seed, distance=distance)
 
 
 # -- the plan ------------------------------------------------------------------------------------------------------
@@ -226,40 +179,32 @@ def book_jobs(
     cost = training_estimates(profile, network_precision(get_device(None)))
     on = {"data": data}
 
-    def job(name: str, recipe, args: tuple, kind: str, after: tuple[str, ...] = (), **kwargs) -> Job:
-        run = partial(recipe, profile, seed, *args, **on, **kwargs)
+    def job(name: str, kind: str, after: tuple[str, ...] = (), **kwargs) -> Job:
+        if name == "data":
+            run = partial(make_data, profile, seed, **on)
+        else:
+            run = partial(make_model, profile, seed, name, **on, **kwargs)
         return Job(name, run, after, cost[kind], partial(is_cached, run))
 
     vq, rvq, flow = ("tokenizer/vq",), ("tokenizer/rvq",), {"overrides": flow_options}
     return [
-        job("data", make_data, (), "data"),
+        job("data", "data"),
         # longest chains first, so the greedy scheduler starts them early
-        job("tokenizer/rvq", make_tokenizer, ("rvq",), "tokenizer", ("data",)),
-        job("tokenizer/vq", make_tokenizer, ("vq",), "tokenizer", ("data",)),
-        job("discord/rvq", make_discord, ("rvq",), "discord", rvq, **flow),
-        job("discord/vq", make_discord, ("vq",), "discord", vq, **flow),
-        job("t2m/dynamic", make_text_to_motion, (None,), "t2m", vq),
-        job("t2m/uniform", make_text_to_motion, (0.0,), "t2m", vq),
-        job("t2m/multi-eta0.25", make_text_to_motion, (MULTI_MOTION_ETA,), "t2m", vq),
+        job("tokenizer/rvq", "tokenizer", ("data",)),
+        job("tokenizer/vq", "tokenizer", ("data",)),
+        job("discord/rvq", "discord", rvq, **flow),
+        job("discord/vq", "discord", vq, **flow),
+        job("t2m/dynamic", "t2m", vq),
+        job("t2m/uniform", "t2m", vq),
+        job("t2m/multi-eta0.25", "t2m", vq),
         # chapter 08's training-seed replicates (seed 0 of each arm is the pair above)
-        job("t2m/dynamic-seed1", make_text_to_motion, (PAPER_ETA, 1), "t2m", vq),
-        job("t2m/uniform-seed1", make_text_to_motion, (0.0, 1), "t2m", vq),
-        job("t2m/dynamic-seed2", make_text_to_motion, (PAPER_ETA, 2), "t2m", vq),
-        job("t2m/uniform-seed2", make_text_to_motion, (0.0, 2), "t2m", vq),
-        job("discord/rvq-stacked", make_discord, ("rvq", "stacked"), "discord_ablation", rvq),
-        job("discord/rvq-repeat", make_discord, ("rvq", "repeat"), "discord_ablation", rvq),
-        job("discord/rvq-transposed", make_discord, ("rvq", "transposed"), "discord_ablation", rvq),
-        *(
-            [
-                job(f"t2m/distance-{d}", make_text_to_motion, (None, None), "t2m", vq, distance=d)
-                for d in ("l2", "cosine", "cosine_rank")
-            ]
-            if profile == "full"
-            else []
-        ),  # chapter 08's distance ablation
-        job("evaluator", make_evaluator, (), "evaluator", ("data",)),
-        job("toy_flow/ring", make_toy_flow, (False,), "toy_flow"),
-        job("toy_flow/ring-conditional", make_toy_flow, (True,), "toy_flow"),
+        *(job(f"t2m/{arm}-seed{k}", "t2m", vq) for k in (1, 2) for arm in ("dynamic", "uniform")),
+        *(job(f"discord/rvq-{p}", "discord_ablation", rvq) for p in ("stacked", "repeat", "transposed")),
+        # chapter 08's distance ablation
+        *(job(f"t2m/distance-{d}", "t2m", vq) for d in ("l2", "cosine", "cosine_rank") if profile == "full"),
+        job("evaluator", "evaluator", ("data",)),
+        job("toy_flow/ring", "toy_flow"),
+        job("toy_flow/ring-conditional", "toy_flow"),
     ]
 
 

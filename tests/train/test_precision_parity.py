@@ -6,6 +6,7 @@ import json
 
 import pytest
 
+from motionlab.estimate import Estimate
 from motionlab.train import precision_parity as pp
 
 
@@ -41,18 +42,41 @@ def _record(precision: str, scale: float) -> dict:
     }
 
 
-def test_parity_tables_compare_each_number_within_its_interval(tmp_path):
+def test_parity_tables_judge_each_number_by_the_one_rule(tmp_path):
     for precision, scale in (("fp32", 1.0), ("bf16", 1.2)):
         (tmp_path / f"{precision}.json").write_text(json.dumps(_record(precision, scale)))
     runs = pp.load_runs(tmp_path)
     assert pp.training_times(runs) == [("rvq", 200.0, pytest.approx(133.33, abs=0.01), pytest.approx(1.5))]
-    rows = {c.what: c for c in pp.quality_rows(runs)}
+    rows = {r.what: r for r in pp.quality_rows(runs)}
     mpjpe = rows["RVQ tokenizer: reconstruction MPJPE (mm)"]
-    assert mpjpe.within_intervals is None and mpjpe.relative_difference == pytest.approx(0.2)  # deterministic
-    assert rows["DisCoRD flow decoder: sJPE"].within_intervals is True
-    assert rows["diffusion model: text-to-motion FID"].within_intervals is False  # 30 ± 2 vs 36 ± 2
+    assert mpjpe.verdict is None and mpjpe.relative_difference == pytest.approx(0.2)  # deterministic
+    assert rows["DisCoRD flow decoder: sJPE"].verdict == "not distinguishable"  # the same number
+    assert rows["diffusion model: text-to-motion FID"].verdict == "higher"  # 36 ± 2 against 30 ± 2
     table = pp.markdown_tables(runs)
-    assert "| rvq | 200 | 133 | 1.50× |" in table and "no interval; bf16 +20.0%" in table and "no (+20.0%)" in table
+    assert "| rvq | 200 | 133 | 1.50× |" in table and "no interval; bf16 +20.0%" in table
+    assert "| 30.000 ± 2.000 | 36.000 ± 2.000 | bf16 higher (+20.0%) |" in table
+    assert "| 1.500 ± 0.100 | 1.500 ± 0.100 | not distinguishable at 95% |" in table
+    assert "within the 95% intervals" not in table  # the overlap rule is gone
+
+
+@pytest.mark.parametrize(
+    ("bf16", "verdict"),
+    [
+        (Estimate(36.0, 2.0, 5), "higher"),  # |6| > hypot(2, 2) = 2.83
+        (Estimate(24.0, 2.0, 5), "lower"),
+        (Estimate(31.0, 2.0, 5), "not distinguishable"),
+        # intervals that overlap (2.5 < 2 + 2) while the difference is clear: the overlap rule said "same"
+        (Estimate(33.5, 2.0, 5), "higher"),
+    ],
+)
+def test_a_row_is_judged_by_the_interval_of_the_difference(bf16, verdict):
+    row = pp.ParityRow("FID", Estimate(30.0, 2.0, 5), bf16)
+    assert row.verdict == verdict
+
+
+def test_a_side_without_repeats_has_no_verdict():
+    row = pp.ParityRow("MPJPE", Estimate(30.0, 2.0, 5), Estimate(40.0))
+    assert not row.has_interval and row.verdict is None and row.relative_difference == pytest.approx(1 / 3)
 
 
 def test_a_missing_run_is_named(tmp_path):

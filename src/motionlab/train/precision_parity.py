@@ -5,9 +5,10 @@ Each run trained the laptop models in one precision on the same data and scored 
 
 - :func:`training_times`: each model's training time (CPU seconds of its ``motionlab train`` process, both runs
   side by side on one 2-core machine) and the fp32/bf16 ratio;
-- :func:`quality_rows`: every quality number of both runs, mean ± 95% half-width, and whether the two intervals
-  overlap. A deterministic row (one decode, no sampling noise) has no interval; there the relative difference is
-  shown instead, and it contains the training run's own noise (one training seed per precision).
+- :func:`quality_rows`: every quality number of both runs, mean ± 95% half-width, and the book's one verdict on
+  bf16 against fp32 (:func:`motionlab.report.compare`: the 95% interval of the difference excludes 0, or the two
+  are not distinguishable). A deterministic row (one decode, no sampling noise) has no interval; there the relative
+  difference is shown instead, and it contains the training run's own noise (one training seed per precision).
 """
 
 from __future__ import annotations
@@ -15,6 +16,10 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
+
+from ..estimate import Estimate
+from ..report import compare
+from ..report.phrases import SAME
 
 PRECISIONS = ("fp32", "bf16")
 
@@ -31,25 +36,30 @@ QUALITY = (
 
 
 @dataclass(frozen=True)
-class Comparison:
-    """One quantity in both precisions: ``(mean, half-width or None)`` each."""
+class ParityRow:
+    """One quantity in both precisions; a deterministic side is an :class:`Estimate` with ``n == 1``."""
 
     what: str
-    fp32: tuple[float, float | None]
-    bf16: tuple[float, float | None]
+    fp32: Estimate
+    bf16: Estimate
 
     @property
-    def within_intervals(self) -> bool | None:
-        """Whether the two 95% intervals overlap; None when a side has no interval (a deterministic row)."""
-        (a, ha), (b, hb) = self.fp32, self.bf16
-        if ha is None or hb is None:
+    def has_interval(self) -> bool:
+        """Both sides were repeated (a deterministic row has one value per precision)."""
+        return self.fp32.n > 1 and self.bf16.n > 1
+
+    @property
+    def verdict(self) -> str | None:
+        """bf16 against fp32 by the one rule: ``"lower"``, ``"higher"`` or ``"not distinguishable"``; None
+        without an interval (a deterministic row)."""
+        if not self.has_interval:
             return None
-        return abs(a - b) <= ha + hb
+        return compare(self.bf16, self.fp32, "bf16", "fp32", quantity=self.what).verdict
 
     @property
     def relative_difference(self) -> float:
         """``(bf16 − fp32) / |fp32|``."""
-        return (self.bf16[0] - self.fp32[0]) / max(abs(self.fp32[0]), 1e-12)
+        return (self.bf16.mean - self.fp32.mean) / max(abs(self.fp32.mean), 1e-12)
 
 
 def load_runs(folder: str | Path) -> dict[str, dict]:
@@ -74,41 +84,36 @@ def training_times(runs: dict[str, dict]) -> list[tuple[str, float, float, float
     ]
 
 
-def _estimate(record: dict, task: str, row_part: str, metric: str) -> tuple[float, float | None]:
+def _estimate(record: dict, task: str, row_part: str, metric: str) -> Estimate:
     table = record[task]["table"]
     rows = [name for name in table["rows"] if row_part in name]
     if len(rows) != 1:
         raise ValueError(f"expected one {task} row containing {row_part!r}, found {rows}")
     cell = table["rows"][rows[0]][metric]
-    fixed = rows[0] in table.get("deterministic", []) or cell["n"] < 2
-    return float(cell["mean"]), None if fixed else float(cell["ci95"])
+    if rows[0] in table.get("deterministic", []) or cell["n"] < 2:
+        return Estimate(float(cell["mean"]))
+    return Estimate(float(cell["mean"]), float(cell["ci95"]), int(cell["n"]))
 
 
-def quality_rows(runs: dict[str, dict]) -> list[Comparison]:
+def quality_rows(runs: dict[str, dict]) -> list[ParityRow]:
     """Every quality number of :data:`QUALITY` in both runs, plus the evaluator's retrieval when it was measured."""
     out = [
-        Comparison(what, _estimate(runs["fp32"], task, row, metric), _estimate(runs["bf16"], task, row, metric))
+        ParityRow(what, _estimate(runs["fp32"], task, row, metric), _estimate(runs["bf16"], task, row, metric))
         for task, row, metric, what in QUALITY
     ]
     if all("evaluator_parity" in runs[p] for p in PRECISIONS):
         for key, label in (("top1", "top 1"), ("top3", "top 3")):
             values = [float(runs[p]["evaluator_parity"]["validation"][f"val_{key}"]) for p in PRECISIONS]
-            out.append(
-                Comparison(
-                    f"evaluator trained in this precision: validation retrieval {label}",
-                    (values[0], None),
-                    (values[1], None),
-                )
-            )
+            what = f"evaluator trained in this precision: validation retrieval {label}"
+            out.append(ParityRow(what, Estimate(values[0]), Estimate(values[1])))
     return out
 
 
 def markdown_tables(runs: dict[str, dict]) -> str:
     """Both tables as Markdown, with the machine they were measured on."""
 
-    def cell(value: tuple[float, float | None]) -> str:
-        mean, half = value
-        return f"{mean:.3f}" if half is None else f"{mean:.3f} ± {half:.3f}"
+    def cell(value: Estimate) -> str:
+        return f"{value:.3f}"  # "mean ± half-width" where repeated, the value alone where deterministic
 
     lines = [
         f"Measured on {runs['fp32']['cpu']} ({runs['fp32']['started']}), profile {runs['fp32']['profile']}, "
@@ -119,14 +124,17 @@ def markdown_tables(runs: dict[str, dict]) -> str:
     ]
     lines += [f"| {m} | {a:.0f} | {b:.0f} | {r:.2f}× |" for m, a, b, r in training_times(runs)]
 
-    def verdict(c: Comparison) -> str:
-        if c.within_intervals is None:
-            return f"no interval; bf16 {c.relative_difference:+.1%}"
-        return "yes" if c.within_intervals else f"no ({c.relative_difference:+.1%})"
+    def verdict(row: ParityRow) -> str:
+        if row.verdict is None:
+            return f"no interval; bf16 {row.relative_difference:+.1%}"
+        if row.verdict == SAME:
+            return "not distinguishable at 95%"
+        return f"bf16 {row.verdict} ({row.relative_difference:+.1%})"
 
-    lines += ["", "| quantity | fp32 | bf16 | within the 95% intervals |", "|---|---:|---:|:---:|"]
-    lines += [f"| {c.what} | {cell(c.fp32)} | {cell(c.bf16)} | {verdict(c)} |" for c in quality_rows(runs)]
+    lines += ["", "| quantity | fp32 | bf16 | bf16 against fp32 (95% interval of the difference) |"]
+    lines += ["|---|---:|---:|:---:|"]
+    lines += [f"| {r.what} | {cell(r.fp32)} | {cell(r.bf16)} | {verdict(r)} |" for r in quality_rows(runs)]
     return "\n".join(lines)
 
 
-__all__ = ["Comparison", "QUALITY", "load_runs", "markdown_tables", "quality_rows", "training_times"]
+__all__ = ["QUALITY", "ParityRow", "load_runs", "markdown_tables", "quality_rows", "training_times"]

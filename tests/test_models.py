@@ -1,0 +1,221 @@
+"""``motionlab.models.load``: the plan's recipes and ``motionlab train <model>`` go through it, on the cache entries
+they used before (a changed key would silently retrain every reader's models)."""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+from functools import partial
+from types import SimpleNamespace
+
+import pytest
+
+from motionlab import book_models, models
+from motionlab.book_models import book_dataset, book_jobs, projection_config
+from motionlab.cli import _trained_model
+from motionlab.diffusion.training import PAPER_ETA
+from motionlab.multimotion import MULTI_MOTION_ETA
+from motionlab.train import cache
+
+# The functions models.load is built on, where models.py imports them from (at call time).
+VERBS = (
+    "motionlab.tokenizers.tokenizer_for_dataset",
+    "motionlab.flow.train_or_load_discord",
+    "motionlab.diffusion.text_to_motion_for_dataset",
+    "motionlab.metrics.evaluator_training.load_or_train_evaluator",
+    "motionlab.flow.toy.train_or_load_toy_flow",
+)
+
+# (eta, training seed, distance) of each text-to-motion job, as the plan passed them before models.load
+OLD_T2M = {
+    "dynamic": (None, None, "l2_rank"),
+    "uniform": (0.0, None, "l2_rank"),
+    "multi-eta0.25": (MULTI_MOTION_ETA, None, "l2_rank"),
+    **{f"dynamic-seed{k}": (PAPER_ETA, k, "l2_rank") for k in (1, 2)},
+    **{f"uniform-seed{k}": (0.0, k, "l2_rank") for k in (1, 2)},
+    **{f"distance-{d}": (None, None, d) for d in models.DISTANCES},
+}
+
+
+def _old_recipe(name: str, profile: str, seed: int, flow: dict | None) -> None:
+    """The calls the plan's recipes made before they went through models.load: the cache keys to keep."""
+    from motionlab import diffusion, tokenizers
+    from motionlab import flow as flows
+    from motionlab.flow import toy
+    from motionlab.metrics import evaluator_training
+
+    dataset = book_dataset(profile, seed)
+    kind, _, variant = name.partition("/")
+    if kind == "tokenizer":
+        tokenizers.tokenizer_for_dataset(variant, dataset, profile)
+    elif kind == "discord":
+        tokens, _, projection = variant.partition("-")
+        tokenizer = tokenizers.tokenizer_for_dataset(tokens, dataset, profile)
+        if projection:
+            config = projection_config(profile, tokenizer, projection, seed)
+        else:
+            config = flows.discord_config(profile, tokenizer=tokenizer, seed=seed, **(flow or {}))
+        flows.train_or_load_discord(dataset, tokenizer, profile, config=config)
+    elif kind == "t2m":
+        eta, training_seed, distance = OLD_T2M[variant]
+        diffusion.text_to_motion_for_dataset(dataset, profile, eta=eta, seed=training_seed, distance=distance)
+    elif kind == "evaluator":
+        evaluator_training.load_or_train_evaluator(dataset, profile)
+    else:
+        conditional = variant.endswith("conditional")
+        config = toy.toy_flow_config(profile, distribution="ring", conditional=conditional, seed=seed)
+        toy.train_or_load_toy_flow(config, profile=profile)
+
+
+class _Verbs:
+    """Stand-ins for :data:`VERBS` that record each call's arguments, defaults filled in (what the key is made of)."""
+
+    def __init__(self, monkeypatch):
+        self.calls: list[tuple[str, dict]] = []
+        self.tokenizers = {
+            k: SimpleNamespace(kind=k, feature_dim=263, code_dim=32, downsample=4) for k in ("vq", "rvq")
+        }
+        for path in VERBS:
+            module, name = path.rsplit(".", 1)
+            monkeypatch.setattr(importlib.import_module(module), name, self._stub(path))
+
+    def _stub(self, path: str):
+        module, name = path.rsplit(".", 1)
+        signature = inspect.signature(getattr(importlib.import_module(module), name))
+
+        def stub(*args, **kwargs):
+            bound = signature.bind(*args, **kwargs)
+            bound.apply_defaults()
+            self.calls.append((name, dict(bound.arguments)))
+            return self.tokenizers[bound.arguments["kind"]] if name == "tokenizer_for_dataset" else None
+
+        return stub
+
+    def of(self, run) -> list[tuple[str, dict]]:
+        self.calls.clear()
+        run()
+        return list(self.calls)
+
+
+@pytest.mark.parametrize(
+    ("profile", "seed", "flow"),
+    [("smoke", 0, None), ("laptop", 0, None), ("full", 0, None), ("smoke", 1, {"prediction": "x"})],
+)
+def test_every_plan_job_makes_the_calls_it_made_before_models_load(monkeypatch, profile, seed, flow):
+    datasets = {}
+    monkeypatch.setattr(book_models, "_dataset", lambda *key: datasets.setdefault(key, SimpleNamespace(key=key)))
+    verbs = _Verbs(monkeypatch)
+    jobs = [job for job in book_jobs(profile, seed, flow_options=flow) if job.name != "data"]
+    assert len(jobs) == len(book_jobs(profile)) - 1
+    for job in jobs:
+        new = verbs.of(job.run)
+        assert new, job.name
+        assert new == verbs.of(partial(_old_recipe, job.name, profile, seed, flow)), job.name
+
+
+def test_plan_recipes_go_through_models_load(monkeypatch):
+    seen = []
+    monkeypatch.setattr(book_models, "_dataset", lambda *key: SimpleNamespace(key=key))
+    monkeypatch.setattr(models, "load", lambda name, dataset, profile, **kw: seen.append((name, dataset, kw)))
+    jobs = {job.name: job for job in book_jobs("smoke", flow_options={"prediction": "x"})}
+    for job in jobs.values():
+        job.run()
+    assert [name for name, _, _ in seen] == [name for name in jobs if name != "data"]
+    by_name = {name: (dataset, kw) for name, dataset, kw in seen}
+    assert by_name["discord/vq"][1] == {"seed": 0, "prediction": "x"}
+    assert by_name["discord/rvq-stacked"][1] == {"seed": 0}  # the ablation keeps the profile's decoder options
+    assert by_name["toy_flow/ring"][0] is None  # the toy flows never load the motion data
+
+
+def _folders(run, monkeypatch) -> list[str]:
+    """The cache folders ``run`` asks for, under a probe (nothing trains; a missing model stops it there)."""
+    asked, original = [], cache.artefact_dir
+
+    def recording(*args, **kwargs):
+        folder = original(*args, **kwargs)
+        asked.append(str(folder))
+        return folder
+
+    monkeypatch.setattr(cache, "artefact_dir", recording)
+    with cache.cache_probe():
+        try:
+            run()
+        except cache.NotCached:
+            pass
+    monkeypatch.setattr(cache, "artefact_dir", original)
+    return asked
+
+
+def test_smoke_plan_jobs_ask_for_the_cache_folders_they_asked_for_before(monkeypatch):
+    book_dataset("smoke", 0)  # outside the probe: made once if it is missing
+    for job in book_jobs("smoke"):
+        if job.name == "data":
+            continue
+        new = _folders(job.run, monkeypatch)
+        assert new, job.name
+        assert new == _folders(partial(_old_recipe, job.name, "smoke", 0, None), monkeypatch), job.name
+
+
+# -- motionlab train <model> ------------------------------------------------------------------------------------
+@pytest.fixture
+def loads(monkeypatch) -> list[tuple[str, dict]]:
+    """models.load replaced by a recorder returning a stand-in with the wrappers' fields."""
+    seen: list[tuple[str, dict]] = []
+
+    def load(name, dataset, profile, **kwargs):
+        seen.append((name, kwargs))
+        return SimpleNamespace(name=name, networks=f"{name} networks", model=f"{name} denoiser")
+
+    monkeypatch.setattr(models, "load", load)
+    return seen
+
+
+@pytest.mark.parametrize(
+    ("model", "name", "returned"),
+    [
+        ("vq", "tokenizer/vq", None),
+        ("rvq", "tokenizer/rvq", None),
+        ("evaluator", "evaluator", "evaluator networks"),
+        ("diffusion", "t2m/dynamic", "t2m/dynamic denoiser"),
+    ],
+)
+def test_trained_model_loads_the_plan_name(loads, model, name, returned):
+    out = _trained_model(model, "ds", "smoke", "cpu")
+    assert loads == [(name, {"device": "cpu"})]
+    assert out == (returned or SimpleNamespace(name=name, networks=f"{name} networks", model=f"{name} denoiser"))
+
+
+def test_trained_discord_passes_its_tokenizer_and_options(loads):
+    _trained_model("discord", "ds", "smoke", None, {"prediction": "x"}, "vq")
+    _trained_model("discord", "ds", "smoke", None)
+    assert loads == [("discord/vq", {"device": None, "prediction": "x"}), ("discord/rvq", {"device": None})]
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (("flow", None), "unknown model 'flow'; use one of diffusion, discord, evaluator, rvq, vq"),
+        (("discord", None, "fsq"), "reads 'rvq' or 'vq' tokens, got 'fsq'"),
+        (("vq", {"prediction": "x"}), "prediction configure the DisCoRD decoder"),
+    ],
+)
+def test_trained_model_refuses_clearly(loads, args, message):
+    name, *rest = args
+    with pytest.raises(ValueError, match=message):
+        _trained_model(name, "ds", "smoke", None, *rest)
+    assert loads == []
+
+
+@pytest.mark.parametrize(
+    ("name", "message"),
+    [
+        ("tokenizer/fsq", "unknown tokenizer 'tokenizer/fsq'"),
+        ("discord/rvq-bogus", "unknown DisCoRD decoder 'discord/rvq-bogus'"),
+        ("t2m/dynamic-seedx", "unknown text-to-motion model 't2m/dynamic-seedx'"),
+        ("flow/rvq", "unknown model 'flow/rvq'"),
+        ("rvq", "model names look like 'discord/rvq'"),
+    ],
+)
+def test_models_load_names_an_unknown_model(name, message):
+    with pytest.raises(ValueError, match=message):
+        models.load(name, SimpleNamespace(key="unused"), "smoke")
