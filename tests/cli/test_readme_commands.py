@@ -90,6 +90,6 @@ def test_readme_commands_run_in_smoke(tmp_path, monkeypatch, request, capsys):
             argv[2] = str(embedded_path("smoke"))
         assert main(argv) == 0, f"{command!r} failed: {capsys.readouterr().err}"
         ran.append(argv[0])
-    assert ran.count("evaluate") == 3 and {"data", "train", "generate"} <= set(ran)
+    assert ran.count("evaluate") == 4 and {"data", "train", "generate"} <= set(ran)
     for output in ("wave.bvh", "two.html", "table1.json") + (("take.npy",) if "convert" in ran else ()):
         assert (tmp_path / output).is_file()

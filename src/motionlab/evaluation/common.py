@@ -186,22 +186,6 @@ def _flow_options_label(decoder: Any) -> str:
     return "".join(", " + text for name, text in labels.items() if getattr(cfg, name) != getattr(paper, name))
 
 
-def _pipeline_and_decoder(dataset, cfg, profile: str, device, progress: bool):
-    """The cached diffusion model, the evaluator, and the DisCoRD decoder of its VQ tokens (or None)."""
-    from motionlab.diffusion.pipeline import text_to_motion_for_dataset
-    from motionlab.metrics.evaluator_training import load_or_train_evaluator
-
-    pipe = text_to_motion_for_dataset(dataset, profile, device=device, progress=progress)
-    evaluator = load_or_train_evaluator(dataset, profile, device=device, progress=progress)
-    if cfg.decoder != "discord":
-        return pipe, evaluator, None, "VQ decoder"
-    from motionlab.flow import train_or_load_discord
-
-    flow = train_or_load_discord(dataset, pipe.tokenizer, profile, device=device, progress=progress)
-    name = f"DisCoRD ({_flow_label(flow, cfg.steps, cfg.solver)})"
-    return pipe, evaluator, _FlowSteps(flow, cfg.steps, cfg.solver), name
-
-
 def _config(config: Any, kind: type) -> Any:
     if config is None:
         return kind()
