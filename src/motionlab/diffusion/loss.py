@@ -62,6 +62,16 @@ def vb_terms(log_p_x0: Tensor, x0: Tensor, x_t: Tensor, t: Tensor, transitions: 
     return torch.where(first, nll, kl), nll
 
 
+def _check_diffusion_loss_inputs(x0: Tensor, padding_mask: Tensor | None, K: int) -> None:
+    """Reject ``x0`` that is not a non-empty ``(B, L)`` tensor of ids in ``[0, K)`` and a mismatched mask."""
+    if x0.ndim != 2 or x0.dtype != torch.long or x0.numel() == 0:
+        raise ValueError(f"x0 must be a non-empty (B, L) long tensor, got {tuple(x0.shape)} {x0.dtype}")
+    if x0.min() < 0 or x0.max() >= K:
+        raise ValueError(f"x0 must hold code ids in [0, {K}), got range [{x0.min()}, {x0.max()}]")
+    if padding_mask is not None and padding_mask.shape != x0.shape:
+        raise ValueError(f"padding_mask must be (B, L) = {tuple(x0.shape)}, got {tuple(padding_mask.shape)}")
+
+
 def diffusion_loss(
     model: nn.Module,
     transitions: Transitions,
@@ -87,12 +97,7 @@ def diffusion_loss(
         t: optional (B,) steps to use instead of drawing them.
     """
     K = transitions.num_codes
-    if x0.ndim != 2 or x0.dtype != torch.long or x0.numel() == 0:
-        raise ValueError(f"x0 must be a non-empty (B, L) long tensor, got {tuple(x0.shape)} {x0.dtype}")
-    if x0.min() < 0 or x0.max() >= K:
-        raise ValueError(f"x0 must hold code ids in [0, {K}), got range [{x0.min()}, {x0.max()}]")
-    if padding_mask is not None and padding_mask.shape != x0.shape:
-        raise ValueError(f"padding_mask must be (B, L) = {tuple(x0.shape)}, got {tuple(padding_mask.shape)}")
+    _check_diffusion_loss_inputs(x0, padding_mask, K)
     B = x0.shape[0]
     if t is None:
         t = sample_timesteps(B, transitions.T, generator)

@@ -149,6 +149,14 @@ def _model_log_p_x0(
     return log_c, log_u
 
 
+def _check_denoise_step_inputs(transitions: Transitions, t: int, t_prev: int, guidance_on: str) -> None:
+    """Reject steps outside ``0 <= t_prev < t <= T`` and an unknown guidance space."""
+    if not (0 <= t_prev < t <= transitions.T):
+        raise ValueError(f"need 0 <= t_prev < t <= T={transitions.T}, got t={t}, t_prev={t_prev}")
+    if guidance_on not in GUIDANCE_SPACES:
+        raise ValueError(f"guidance_on must be one of {GUIDANCE_SPACES}, got {guidance_on!r}")
+
+
 @torch.no_grad()
 def denoise_step(
     model: nn.Module,
@@ -172,10 +180,7 @@ def denoise_step(
 
     Padded positions (``padding_mask`` True) stay masked. At ``t_prev = 0`` the result holds codes only.
     """
-    if not (0 <= t_prev < t <= transitions.T):
-        raise ValueError(f"need 0 <= t_prev < t <= T={transitions.T}, got t={t}, t_prev={t_prev}")
-    if guidance_on not in GUIDANCE_SPACES:
-        raise ValueError(f"guidance_on must be one of {GUIDANCE_SPACES}, got {guidance_on!r}")
+    _check_denoise_step_inputs(transitions, t, t_prev, guidance_on)
     kw = dict(
         text_padding_mask=text_padding_mask, padding_mask=padding_mask, cross_mask=cross_mask, self_mask=self_mask
     )

@@ -112,12 +112,17 @@ def vqdiffusion_code_schedule(T: int = DEFAULT_T) -> Schedule:
     return linear_schedule(T, (0.99999, 0.000009), (0.000009, 0.99999), name="vqdiffusion_code")
 
 
-def vqdiffusion_paper_schedule(T: int = DEFAULT_T, gamma_bar_T: float = 0.9, kbeta_bar_T: float = 0.1) -> Schedule:
-    """The VQ-Diffusion paper's schedule: γ̄_t and K·β̄_t rise linearly from 0 to their values at T."""
+def _check_vqdiffusion_paper_schedule_inputs(T: int, gamma_bar_T: float, kbeta_bar_T: float) -> None:
+    """Reject negative end values, end values summing past 1, and a non-positive ``T``."""
     if gamma_bar_T < 0 or kbeta_bar_T < 0 or gamma_bar_T + kbeta_bar_T > 1:
         raise ValueError(f"need gamma_bar_T, kbeta_bar_T >= 0 with sum <= 1, got {gamma_bar_T}, {kbeta_bar_T}")
     if not isinstance(T, int) or T < 1:
         raise ValueError(f"T must be a positive int, got {T!r}")
+
+
+def vqdiffusion_paper_schedule(T: int = DEFAULT_T, gamma_bar_T: float = 0.9, kbeta_bar_T: float = 0.1) -> Schedule:
+    """The VQ-Diffusion paper's schedule: γ̄_t and K·β̄_t rise linearly from 0 to their values at T."""
+    _check_vqdiffusion_paper_schedule_inputs(T, gamma_bar_T, kbeta_bar_T)
     u = torch.arange(1, T + 1, dtype=torch.float64) / T
     return linear_schedule(
         T,

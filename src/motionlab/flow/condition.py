@@ -113,6 +113,14 @@ def frames_per_token_distinct(features: Tensor, q: int, atol: float = 1e-6) -> T
     return spread > atol
 
 
+def _check_token_influence_inputs(projection: nn.Module, n_tokens: int) -> None:
+    """Reject a non-positive ``n_tokens`` and a projection without a ``code_dim``."""
+    if isinstance(n_tokens, bool) or not isinstance(n_tokens, int) or n_tokens < 1:
+        raise ValueError(f"n_tokens must be a positive int, got {n_tokens!r}")
+    if getattr(projection, "code_dim", None) is None:
+        raise ValueError(f"projection must come from make_condition_projection, got {type(projection).__name__}")
+
+
 @torch.no_grad()
 def token_influence(projection: nn.Module, n_tokens: int = 6, seed: int = 0, atol: float = 1e-6) -> Tensor:
     """Which frames each token reaches: ``(N, q·N)`` bool, ``[n, f]`` true when bumping token ``n``'s code vector
@@ -120,11 +128,8 @@ def token_influence(projection: nn.Module, n_tokens: int = 6, seed: int = 0, ato
 
     The code vectors are one random draw (``seed``); the projection is linear, so the pattern does not depend on it.
     """
-    if isinstance(n_tokens, bool) or not isinstance(n_tokens, int) or n_tokens < 1:
-        raise ValueError(f"n_tokens must be a positive int, got {n_tokens!r}")
-    d = getattr(projection, "code_dim", None)
-    if d is None:
-        raise ValueError(f"projection must come from make_condition_projection, got {type(projection).__name__}")
+    _check_token_influence_inputs(projection, n_tokens)
+    d = projection.code_dim
     base = torch.randn(1, n_tokens, d, generator=torch.Generator().manual_seed(seed))  # (1, N, d)
     reference = projection(base)  # (1, q·N, c)
     rows = []

@@ -200,6 +200,16 @@ class DisCoRDDecoder(nn.Module):
         finally:
             self.train(was_training)
 
+    def _check_decode_inputs(self, ids: Tensor, tokenizer: Any) -> None:
+        """Reject a missing or mismatched tokenizer and ids that are not ``(B, N)`` / ``(B, N, R)`` integers."""
+        if tokenizer is None:
+            raise ValueError("no tokenizer: pass tokenizer=... or call DisCoRDDecoder.attach(tokenizer) first")
+        self._check_tokenizer(tokenizer)
+        if not isinstance(ids, Tensor) or ids.dim() not in (2, 3) or ids.dtype.is_floating_point:
+            raise ValueError(f"ids must be an integer tensor of shape (B, N) or (B, N, R), got {_shape(ids)}")
+        if ids.shape[0] < 1 or ids.shape[1] < 1:
+            raise ValueError(f"ids must hold at least one clip and one token, got {tuple(ids.shape)}")
+
     @torch.no_grad()
     def decode(
         self,
@@ -216,13 +226,7 @@ class DisCoRDDecoder(nn.Module):
         Uses ``tokenizer`` if given, else the one from :meth:`attach`; only its ``embed`` is called.
         """
         tokenizer = tokenizer if tokenizer is not None else self.tokenizer
-        if tokenizer is None:
-            raise ValueError("no tokenizer: pass tokenizer=... or call DisCoRDDecoder.attach(tokenizer) first")
-        self._check_tokenizer(tokenizer)
-        if not isinstance(ids, Tensor) or ids.dim() not in (2, 3) or ids.dtype.is_floating_point:
-            raise ValueError(f"ids must be an integer tensor of shape (B, N) or (B, N, R), got {_shape(ids)}")
-        if ids.shape[0] < 1 or ids.shape[1] < 1:
-            raise ValueError(f"ids must hold at least one clip and one token, got {tuple(ids.shape)}")
+        self._check_decode_inputs(ids, tokenizer)
         code_vectors = tokenizer.embed(ids)  # (B, N, d)
         expected = (ids.shape[0], ids.shape[1], self.config.code_dim)
         if not isinstance(code_vectors, Tensor) or tuple(code_vectors.shape) != expected:

@@ -118,6 +118,15 @@ def _clip_joints(features: Sequence[np.ndarray]) -> ClipJoints:
     return ClipJoints.from_features(list(features))
 
 
+def _check_reconstruction_scores_inputs(pred_features: Sequence[np.ndarray], gt_features: Sequence[np.ndarray]) -> None:
+    """Reject unequal or empty clip lists and prediction / ground-truth pairs of different shapes."""
+    if len(pred_features) != len(gt_features) or len(pred_features) == 0:
+        raise ValueError(f"need equal, non-zero numbers of clips, got {len(pred_features)} and {len(gt_features)}")
+    for i, (p, g) in enumerate(zip(pred_features, gt_features)):
+        if np.shape(p) != np.shape(g):
+            raise ValueError(f"clip {i}: prediction {np.shape(p)} and ground truth {np.shape(g)} differ in shape")
+
+
 def reconstruction_scores(
     pred_features: Sequence[np.ndarray],
     gt_features: Sequence[np.ndarray],
@@ -134,11 +143,7 @@ def reconstruction_scores(
     every pose (pelvis-aligned, millimetres); sJPE is the mean over clips, in both of the public code's variants
     (element, and ratio: the paper's [0, 1] scale). Joints are recovered once per clip set, on real frames only.
     """
-    if len(pred_features) != len(gt_features) or len(pred_features) == 0:
-        raise ValueError(f"need equal, non-zero numbers of clips, got {len(pred_features)} and {len(gt_features)}")
-    for i, (p, g) in enumerate(zip(pred_features, gt_features)):
-        if np.shape(p) != np.shape(g):
-            raise ValueError(f"clip {i}: prediction {np.shape(p)} and ground truth {np.shape(g)} differ in shape")
+    _check_reconstruction_scores_inputs(pred_features, gt_features)
     skeleton = SKELETON_OF_DIM.get(int(np.shape(gt_features[0])[-1]), "t2m")
     pred_joints = _clip_joints(pred_features) if pred_joints is None else pred_joints
     gt_joints = _clip_joints(gt_features) if gt_joints is None else gt_joints

@@ -122,6 +122,14 @@ def as_velocity_fn(network: VelocityFn, prediction: str = "v") -> VelocityFn:
     return velocity
 
 
+def _check_flow_matching_loss_inputs(x1: Tensor, generator: torch.Generator | None) -> None:
+    """Reject an ``x1`` that is not a ``(B, ...)`` tensor and a missing generator."""
+    if not isinstance(x1, Tensor) or x1.dim() < 2:
+        raise ValueError(f"x1 must be a tensor of shape (B, ...) with at least 2 dims, got {_shape(x1)}")
+    if generator is None:
+        raise ValueError("generator is required: pass a seeded torch.Generator")
+
+
 def flow_matching_loss(
     network: VelocityFn,
     x1: Tensor,
@@ -140,10 +148,7 @@ def flow_matching_loss(
     ``torch.Generator().manual_seed(seed)``). ``network`` outputs what ``prediction`` says; the loss is always
     on the velocity it implies (:func:`as_velocity_fn`).
     """
-    if not isinstance(x1, Tensor) or x1.dim() < 2:
-        raise ValueError(f"x1 must be a tensor of shape (B, ...) with at least 2 dims, got {_shape(x1)}")
-    if generator is None:
-        raise ValueError("generator is required: pass a seeded torch.Generator")
+    _check_flow_matching_loss_inputs(x1, generator)
     velocity_fn = as_velocity_fn(network, prediction)
     x0 = sample_noise(tuple(x1.shape), generator, like=x1)  # (B, ...)
     t = sample_time(x1.shape[0], generator, like=x1, distribution=time_distribution, loc=time_loc, scale=time_scale)
@@ -218,6 +223,13 @@ def midpoint_step(velocity_fn: VelocityFn, x: Tensor, t: float, dt: float, cond:
 _STEPPERS = {"euler": euler_step, "midpoint": midpoint_step}
 
 
+def _check_sample_inputs(x0: Tensor, steps: int, solver: str) -> None:
+    """Reject a bad ``steps`` / ``solver`` and an ``x0`` that is not a ``(B, ...)`` tensor."""
+    _check_solver(steps, solver)
+    if not isinstance(x0, Tensor) or x0.dim() < 1:
+        raise ValueError(f"x0 must be a tensor of shape (B, ...), got {_shape(x0)}")
+
+
 def sample(
     velocity_fn: VelocityFn,
     x0: Tensor,
@@ -235,9 +247,7 @@ def sample(
     ``final_fn(x, t, cond)``, if given, replaces the last interval: it returns the data estimate from the last
     grid point before 1 in one call (an x-predicting network's own ``x̂1``).
     """
-    _check_solver(steps, solver)
-    if not isinstance(x0, Tensor) or x0.dim() < 1:
-        raise ValueError(f"x0 must be a tensor of shape (B, ...), got {_shape(x0)}")
+    _check_sample_inputs(x0, steps, solver)
     step = _STEPPERS[solver]
     grid = time_grid(steps, spacing).tolist()
     x = x0

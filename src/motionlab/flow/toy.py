@@ -242,6 +242,15 @@ def straightness(path: Tensor) -> Tensor:
     return torch.where(arc > 0, chord / arc.clamp_min(torch.finfo(flat.dtype).tiny), torch.ones_like(arc))
 
 
+def _check_energy_distance_inputs(a: Tensor, b: Tensor) -> None:
+    """Reject point clouds that are not ``(N, D)`` tensors of one dimension ``D``."""
+    for name, x in (("a", a), ("b", b)):
+        if not isinstance(x, Tensor) or x.dim() != 2 or x.shape[0] < 1:
+            raise ValueError(f"{name} must be a tensor of shape (N, D), got {tuple(getattr(x, 'shape', ()))}")
+    if a.shape[1] != b.shape[1]:
+        raise ValueError(f"a and b must have the same dimension D, got {a.shape[1]} and {b.shape[1]}")
+
+
 def energy_distance(a: Tensor, b: Tensor) -> Tensor:
     """Energy distance between point clouds ``a (N, D)`` and ``b (M, D)`` (V-statistic, ≥ 0)::
 
@@ -250,11 +259,7 @@ def energy_distance(a: Tensor, b: Tensor) -> Tensor:
     Zero in the population limit iff the two distributions are equal (Székely & Rizzo); two finite
     samples of one distribution give a small positive value of order 1/N (compare against that floor).
     """
-    for name, x in (("a", a), ("b", b)):
-        if not isinstance(x, Tensor) or x.dim() != 2 or x.shape[0] < 1:
-            raise ValueError(f"{name} must be a tensor of shape (N, D), got {tuple(getattr(x, 'shape', ()))}")
-    if a.shape[1] != b.shape[1]:
-        raise ValueError(f"a and b must have the same dimension D, got {a.shape[1]} and {b.shape[1]}")
+    _check_energy_distance_inputs(a, b)
     a, b = a.double(), b.double()  # many small differences of large means: keep precision
     return 2 * torch.cdist(a, b).mean() - torch.cdist(a, a).mean() - torch.cdist(b, b).mean()
 

@@ -114,6 +114,18 @@ class EvaluatorNetworks(nn.Module):
         return encode_motion_exact(self.evaluator, motions, lengths)
 
 
+def _check_encode_motion_exact_inputs(motions: torch.Tensor, lengths: torch.Tensor, c: EvaluatorConfig) -> torch.Tensor:
+    """Reject motions not ``(B, T, dim_pose)`` and lengths not whole units within T; return lengths as int64."""
+    if motions.dim() != 3 or motions.shape[-1] != c.dim_pose:
+        raise ValueError(f"motions must have shape (B, T, {c.dim_pose}), got {tuple(motions.shape)}")
+    lengths = torch.as_tensor(lengths, dtype=torch.int64)
+    if lengths.shape != (motions.shape[0],) or (lengths < c.unit_length).any() or (lengths > motions.shape[1]).any():
+        raise ValueError(f"lengths must be ({motions.shape[0]},) values in [{c.unit_length}, {motions.shape[1]}]")
+    if (lengths % c.unit_length).any():
+        raise ValueError(f"lengths must be multiples of unit_length={c.unit_length}, got {lengths.tolist()}")
+    return lengths
+
+
 def encode_motion_exact(evaluator: TextMotionEvaluator, motions: torch.Tensor, lengths: torch.Tensor) -> torch.Tensor:
     """``TextMotionEvaluator.encode_motion`` without padding leaking into any clip's embedding.
 
@@ -122,13 +134,7 @@ def encode_motion_exact(evaluator: TextMotionEvaluator, motions: torch.Tensor, l
     zeros the convolutions' own padding supplies when the clip is encoded alone.
     """
     c = evaluator.config
-    if motions.dim() != 3 or motions.shape[-1] != c.dim_pose:
-        raise ValueError(f"motions must have shape (B, T, {c.dim_pose}), got {tuple(motions.shape)}")
-    lengths = torch.as_tensor(lengths, dtype=torch.int64)
-    if lengths.shape != (motions.shape[0],) or (lengths < c.unit_length).any() or (lengths > motions.shape[1]).any():
-        raise ValueError(f"lengths must be ({motions.shape[0]},) values in [{c.unit_length}, {motions.shape[1]}]")
-    if (lengths % c.unit_length).any():
-        raise ValueError(f"lengths must be multiples of unit_length={c.unit_length}, got {lengths.tolist()}")
+    lengths = _check_encode_motion_exact_inputs(motions, lengths, c)
     conv = evaluator.movement_encoder
     steps = torch.arange(motions.shape[1], device=motions.device)
     x = motions[..., :-4].float() * (steps < lengths.to(motions.device)[:, None])[..., None]  # (B, T, D-4)

@@ -27,13 +27,8 @@ from .joints import ClipJoints
 TIME_UNITS = ("frames", "seconds")
 
 
-def finite_difference_jerk(positions, fps: float, axis: int = -3):
-    """Jerk ``(p[t+3] - 3p[t+2] + 3p[t+1] - p[t]) * fps^3`` along ``axis`` (time).
-
-    ``positions`` is a NumPy array or torch tensor, by default ``(..., T, J, 3)``; the result has the
-    same type and ``T - 3`` frames on the time axis. Multiplying by ``fps^3`` turns "per frame^3" into
-    "per second^3" (``dt = 1 / fps``).
-    """
+def _check_finite_difference_jerk_inputs(positions, fps: float, axis: int) -> torch.Tensor | np.ndarray:
+    """Reject a non-positive ``fps`` and fewer than 4 frames; return ``positions`` (a tensor, or a float array)."""
     if fps <= 0:
         raise ValueError(f"fps must be positive, got {fps}")
     if isinstance(positions, torch.Tensor):
@@ -41,11 +36,24 @@ def finite_difference_jerk(positions, fps: float, axis: int = -3):
             raise ValueError(f"positions need at least 4 frames on axis {axis}, got shape {tuple(positions.shape)}")
         if not torch.isfinite(positions).all():
             raise ValueError("positions contain NaN or inf values")
-        return torch.diff(positions, n=3, dim=axis) * fps**3
+        return positions
     arr = as_float_array(positions, "positions")
     if arr.ndim == 0 or arr.shape[axis] < 4:
         raise ValueError(f"positions need at least 4 frames on axis {axis}, got shape {arr.shape}")
-    return np.diff(arr, n=3, axis=axis) * fps**3
+    return arr
+
+
+def finite_difference_jerk(positions, fps: float, axis: int = -3):
+    """Jerk ``(p[t+3] - 3p[t+2] + 3p[t+1] - p[t]) * fps^3`` along ``axis`` (time).
+
+    ``positions`` is a NumPy array or torch tensor, by default ``(..., T, J, 3)``; the result has the
+    same type and ``T - 3`` frames on the time axis. Multiplying by ``fps^3`` turns "per frame^3" into
+    "per second^3" (``dt = 1 / fps``).
+    """
+    positions = _check_finite_difference_jerk_inputs(positions, fps, axis)
+    if isinstance(positions, torch.Tensor):
+        return torch.diff(positions, n=3, dim=axis) * fps**3
+    return np.diff(positions, n=3, axis=axis) * fps**3
 
 
 def squared_length(v: np.ndarray) -> np.ndarray:

@@ -33,10 +33,10 @@ def _clips(features: Sequence, name: str) -> list[np.ndarray]:
     return out
 
 
-def add_frame_noise(
+def _check_add_frame_noise_inputs(
     features: Sequence, sigma: float, normalizer: Normalizer, rng: np.random.Generator
 ) -> list[np.ndarray]:
-    """Raw clips ``(T_i, D)`` plus i.i.d. noise of ``sigma`` in normalised units: ``x + sigma * std * eps``."""
+    """Reject a bad ``sigma`` or ``rng`` and clips unlike the normalizer; return the clips as float arrays."""
     if not np.isfinite(sigma) or sigma < 0:
         raise ValueError(f"sigma must be a finite non-negative number, got {sigma}")
     if not isinstance(rng, np.random.Generator):
@@ -45,6 +45,15 @@ def add_frame_noise(
     std = np.asarray(normalizer.std, dtype=np.float64)
     if any(c.shape[1] != std.shape[0] for c in clips):
         raise ValueError(f"features must have {std.shape[0]} dims like the normalizer")
+    return clips
+
+
+def add_frame_noise(
+    features: Sequence, sigma: float, normalizer: Normalizer, rng: np.random.Generator
+) -> list[np.ndarray]:
+    """Raw clips ``(T_i, D)`` plus i.i.d. noise of ``sigma`` in normalised units: ``x + sigma * std * eps``."""
+    clips = _check_add_frame_noise_inputs(features, sigma, normalizer, rng)
+    std = np.asarray(normalizer.std, dtype=np.float64)
     return [c + sigma * std * rng.standard_normal(c.shape) for c in clips]
 
 

@@ -433,6 +433,14 @@ def _features(features: Sequence, name: str) -> list[np.ndarray]:
     return [np.asarray(f) for f in features]
 
 
+def _check_noise_sweep_inputs(sigmas: Sequence[float], repeats: int) -> None:
+    """Reject a non-positive ``repeats`` and an empty ``sigmas``."""
+    if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1:
+        raise ValueError(f"repeats must be a positive int, got {repeats!r}")
+    if len(sigmas) == 0:
+        raise ValueError("sigmas is empty")
+
+
 def noise_sweep(
     gt_features: Sequence[np.ndarray],
     sigmas: Sequence[float],
@@ -456,10 +464,7 @@ def noise_sweep(
     from .distribution import fid
     from .perturbations import add_frame_noise
 
-    if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1:
-        raise ValueError(f"repeats must be a positive int, got {repeats!r}")
-    if len(sigmas) == 0:
-        raise ValueError("sigmas is empty")
+    _check_noise_sweep_inputs(sigmas, repeats)
     clean = _features(gt_features, "gt_features")
     setting = sjpe_setting(skeleton)
     gt_joints = [recover_from_ric(f, setting.n_joints) for f in clean]

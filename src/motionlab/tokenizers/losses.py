@@ -17,6 +17,15 @@ def ric_slice(n_joints: int) -> slice:
     return slice(4, 4 + 3 * (n_joints - 1))
 
 
+def _check_tokenizer_loss_inputs(recon: torch.Tensor, target: torch.Tensor, n_joints: int) -> None:
+    """Reject mismatched shapes and targets too narrow for ``n_joints`` joint positions."""
+    if recon.shape != target.shape:
+        raise ValueError(f"recon and target must match, got {tuple(recon.shape)} and {tuple(target.shape)}")
+    ric = ric_slice(n_joints)
+    if ric.stop > target.shape[-1]:
+        raise ValueError(f"n_joints={n_joints} needs at least {ric.stop} feature dims, got {target.shape[-1]}")
+
+
 def tokenizer_loss(
     recon: torch.Tensor,
     target: torch.Tensor,
@@ -26,11 +35,8 @@ def tokenizer_loss(
     commit_weight: float = 0.02,
 ) -> dict[str, torch.Tensor]:
     """Named loss terms for motion ``(B, T, D)``; ``"loss"`` is the weighted total to minimise."""
-    if recon.shape != target.shape:
-        raise ValueError(f"recon and target must match, got {tuple(recon.shape)} and {tuple(target.shape)}")
+    _check_tokenizer_loss_inputs(recon, target, n_joints)
     ric = ric_slice(n_joints)
-    if ric.stop > target.shape[-1]:
-        raise ValueError(f"n_joints={n_joints} needs at least {ric.stop} feature dims, got {target.shape[-1]}")
     recon_term = F.smooth_l1_loss(recon, target)
     ric_term = F.smooth_l1_loss(recon[..., ric], target[..., ric])
     total = recon_term + ric_weight * ric_term + commit_weight * commit_loss
