@@ -10,8 +10,9 @@ from types import SimpleNamespace
 
 import pytest
 
-from motionlab import book_models, models
-from motionlab.book_models import book_dataset, book_jobs, projection_config
+from motionlab import models
+from motionlab.build import book_models
+from motionlab.build.book_models import book_dataset, book_jobs, projection_config
 from motionlab.cli import _trained_model
 from motionlab.diffusion.training import PAPER_ETA
 from motionlab.multimotion import MULTI_MOTION_ETA

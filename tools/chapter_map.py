@@ -6,7 +6,7 @@ The times come from two files that the build records (commit them after a measur
     motionlab book execute --record    ->  book/data/build_times/<profile>.json            (per chapter)
 
 Warm is a chapter's execution with its models cached; cold adds the training of the models it is the first to
-load (see ``motionlab.book_models.chapter_costs``). ``--check`` only reports whether the intro is up to date
+load (see ``motionlab.build.book_models.chapter_costs``). ``--check`` only reports whether the intro is up to date
 (a test runs it, so the map cannot drift from the recorded measurements).
 
     python tools/chapter_map.py [--profile laptop] [--check]
@@ -20,7 +20,7 @@ import re
 import sys
 from pathlib import Path
 
-from motionlab.book_models import chapter_costs
+from motionlab.build.book_models import chapter_costs
 
 ROOT = Path(__file__).resolve().parent.parent
 HEADER = "| # | chapter | builds | needs | cold / warm (min) |"

@@ -115,8 +115,8 @@ def _train(args: argparse.Namespace) -> int:
 
 
 def _train_book(args: argparse.Namespace, flow_options: dict) -> int:
-    from .book_models import book_jobs
-    from .train.plan import results_table, run_plan
+    from .build.book_models import book_jobs
+    from .build.plan import results_table, run_plan
 
     given = [f"--{k.replace('_', '-')}" for k in flow_options] + [
         option
@@ -154,7 +154,7 @@ def _train_book(args: argparse.Namespace, flow_options: dict) -> int:
 
 def _record_training(path: Path, results) -> None:
     """Merge the times of the models trained now into ``path``; models loaded from the cache keep their entry."""
-    from .book_models import job_precision
+    from .build.book_models import job_precision
     from .precision import network_precision
     from .train.device import get_device
 
@@ -178,7 +178,7 @@ def _book_execute(args: argparse.Namespace) -> int:
 
     import yaml
 
-    from . import notebook_runner as runner
+    from .build import notebook_runner as runner
 
     root = Path(args.root).resolve()
     toc = root / "book" / "_toc.yml"
@@ -304,8 +304,8 @@ def _generate(args: argparse.Namespace) -> int:
 def _announce_training(profile: str, models: list[str], data: str | None = None, flow_options: dict | None = None):
     """Before anything trains on first use: one line naming the missing models, in order, with the expected
     time, and how to get a quick taste instead. Silent when everything is cached."""
-    from .book_models import jobs_for
-    from .train.plan import plan_line
+    from .build.book_models import jobs_for
+    from .build.plan import plan_line
 
     try:
         line = plan_line(jobs_for(models, profile, data=data, flow_options=flow_options or None), workers=1)
@@ -320,7 +320,7 @@ def _announce_training(profile: str, models: list[str], data: str | None = None,
 def _probe_then_run():
     """Around a command's :func:`_announce_training` and its work: what the plan probe loaded (the dataset,
     the cached models) is what the command uses, so nothing is read and verified twice."""
-    from .book_models import forget_book_datasets
+    from .build.book_models import forget_book_datasets
     from .train.cache import reuse_probed_models
 
     forget_book_datasets()  # the dataset as it is now, not one an earlier call in this process left in memory
@@ -331,7 +331,7 @@ def _probe_then_run():
 def _command_dataset(data: str | None, profile: str):
     """The command's dataset (seed 0, as ``load_dataset``'s default): inside :func:`_probe_then_run`, the
     instance the plan probe loaded, else loaded now (as it is when the probe failed or was skipped)."""
-    from .book_models import book_dataset
+    from .build.book_models import book_dataset
 
     return book_dataset(profile, 0, data)
 

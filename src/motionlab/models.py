@@ -56,7 +56,7 @@ def _discord(variant: str, dataset, profile: str, seed: int, device, overrides: 
         )
     tokenizer = _tokenizer(tokens, dataset, profile, device)
     if projection:
-        from motionlab.book_models import projection_config
+        from motionlab.build.book_models import projection_config
 
         config = projection_config(profile, tokenizer, projection, seed, **overrides)
     else:
@@ -117,7 +117,7 @@ def load(
         config = toy_flow_config(profile, distribution="ring", conditional=variant.endswith("conditional"), seed=seed)
         return train_or_load_toy_flow(config, profile=profile)
     if dataset is None:
-        from motionlab.book_models import book_dataset
+        from motionlab.build.book_models import book_dataset
 
         dataset = book_dataset(profile, seed)
     if kind == "data":

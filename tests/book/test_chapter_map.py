@@ -9,7 +9,7 @@ from pathlib import Path
 
 import yaml
 
-from motionlab.book_models import CHAPTER_MODELS, book_jobs, chapter_costs
+from motionlab.build.book_models import CHAPTER_MODELS, book_jobs, chapter_costs
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -59,8 +59,8 @@ def test_the_intro_shows_the_recorded_laptop_times():
 
 
 def test_recording_training_times_keeps_the_entries_of_cached_models(tmp_path):
+    from motionlab.build.plan import JobResult
     from motionlab.cli import _record_training
-    from motionlab.train.plan import JobResult
 
     path = tmp_path / "laptop-training.json"
     _record_training(path, [JobResult("data", "trained", 70.0, 65.0), JobResult("evaluator", "trained", 200, 190)])
@@ -73,15 +73,15 @@ def test_recording_training_times_keeps_the_entries_of_cached_models(tmp_path):
 
 def test_train_book_in_the_repository_keeps_its_times_beside_the_build(tmp_path, monkeypatch):
     from motionlab import cli
-    from motionlab.train.plan import JobResult
+    from motionlab.build.plan import JobResult
 
     (tmp_path / "book").mkdir()
     (tmp_path / "book" / "_toc.yml").write_text("format: jb-book\n")
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("MOTIONLAB_HOME", str(tmp_path / "home"))
-    monkeypatch.setattr("motionlab.book_models.book_jobs", lambda profile: [])
+    monkeypatch.setattr("motionlab.build.book_models.book_jobs", lambda profile: [])
     monkeypatch.setattr(
-        "motionlab.train.plan.run_plan", lambda plan, workers: [JobResult("data", "trained", 80.0, 6.0)]
+        "motionlab.build.plan.run_plan", lambda plan, workers: [JobResult("data", "trained", 80.0, 6.0)]
     )
     args = cli.build_parser().parse_args(["train", "book", "--profile", "smoke"])
     args.settings = cli._settings(args)  # what main() resolves before any command
@@ -92,8 +92,8 @@ def test_train_book_in_the_repository_keeps_its_times_beside_the_build(tmp_path,
 
 
 def test_recorded_times_name_the_precision_each_model_trained_in(tmp_path, monkeypatch):
+    from motionlab.build.plan import JobResult
     from motionlab.cli import _record_training
-    from motionlab.train.plan import JobResult
 
     monkeypatch.setenv("MOTIONLAB_PRECISION", "bf16")
     path = tmp_path / "training.json"
@@ -103,7 +103,7 @@ def test_recorded_times_name_the_precision_each_model_trained_in(tmp_path, monke
 
 
 def test_chapter_04s_ablation_has_its_own_budget_where_the_profile_says_so():
-    from motionlab.book_models import ABLATION_STEPS, projection_config
+    from motionlab.build.book_models import ABLATION_STEPS, projection_config
     from motionlab.flow import discord_config
 
     for profile in ("smoke", "laptop", "full"):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import nbformat
 import pytest
 
-from motionlab.notebook_runner import execute_chapter, execute_chapters, stage_site, timings_record
+from motionlab.build.notebook_runner import execute_chapter, execute_chapters, stage_site, timings_record
 
 pytest.importorskip("nbclient")
 
@@ -103,7 +103,7 @@ def test_an_interact_cell_keeps_its_output_in_the_cell(tmp_path):
 def test_the_summary_chapter_runs_after_the_others():
     from pathlib import Path
 
-    from motionlab.notebook_runner import runs_last
+    from motionlab.build.notebook_runner import runs_last
 
     notebooks = Path(__file__).resolve().parents[2] / "notebooks"
     assert [p.stem for p in sorted(notebooks.glob("*.ipynb")) if runs_last(p)] == ["99_what_reproduces"]
@@ -138,7 +138,7 @@ def test_an_unchanged_chapter_is_kept_and_a_changed_one_executes_again(tmp_path)
 
 
 def test_the_fingerprint_follows_the_profile_and_the_model_cache(tmp_path):
-    from motionlab.notebook_runner import build_fingerprint
+    from motionlab.build.notebook_runner import build_fingerprint
 
     model = tmp_path / "models" / "vq" / "smoke" / "abc" / "model.safetensors"
     model.parent.mkdir(parents=True)

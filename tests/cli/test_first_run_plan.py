@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from motionlab import cli
-from motionlab.book_models import ESTIMATES_S, book_jobs, jobs_for
+from motionlab.build.book_models import ESTIMATES_S, book_jobs, jobs_for
 from motionlab.train.cache import NotCached, check_may_train
 
 
@@ -31,7 +31,7 @@ def test_generate_on_an_empty_cache_announces_every_model_in_order(empty_home, c
 
 
 def test_nothing_is_announced_when_everything_is_cached(empty_home, capsys, monkeypatch):
-    monkeypatch.setattr("motionlab.book_models.is_cached", lambda run: True)
+    monkeypatch.setattr("motionlab.build.book_models.is_cached", lambda run: True)
     cli._announce_training("smoke", ["t2m/dynamic"])
     assert capsys.readouterr().err == ""
 

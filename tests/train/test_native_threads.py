@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-from motionlab.workers import NATIVE_THREAD_VARIABLES, native_threads_for_children
+from motionlab.build.workers import NATIVE_THREAD_VARIABLES, native_threads_for_children
 
 
 def _child_env() -> dict[str, str]:
@@ -43,7 +43,7 @@ _ORPHANING_PARENT = """
 import sys, time
 from concurrent.futures import ProcessPoolExecutor
 import multiprocessing
-from motionlab.workers import interrupt_when_orphaned
+from motionlab.build.workers import interrupt_when_orphaned
 
 def work(path):
     import os
@@ -100,7 +100,7 @@ def _alive(pid: int) -> bool:
 
 
 def test_elapsed_stamp_is_minutes_and_seconds():
-    from motionlab.workers import elapsed_stamp
+    from motionlab.build.workers import elapsed_stamp
 
     assert elapsed_stamp(0) == "[  0:00]"
     assert elapsed_stamp(61.9) == "[  1:01]"

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
+from motionlab.build.plan import Job, check_plan, expected_wall_seconds, plan_line, results_table, run_plan
 from motionlab.train.cache import NotCached, cache_probe, check_may_train
-from motionlab.train.plan import Job, check_plan, expected_wall_seconds, plan_line, results_table, run_plan
 
 
 def write(path: Path, text: str = "trained") -> None:
@@ -79,7 +79,7 @@ SCRIPT = """
 import sys, time
 from functools import partial
 from pathlib import Path
-from motionlab.train.plan import Job, results_table, run_plan
+from motionlab.build.plan import Job, results_table, run_plan
 
 def slow(path):
     time.sleep(60)

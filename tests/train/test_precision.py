@@ -230,7 +230,7 @@ def test_cli_precision_is_a_global_option_handed_to_the_run(tmp_path, capsys):
 
 
 def test_the_plan_line_says_which_precision_trains(monkeypatch):
-    from motionlab.train.plan import Job, plan_line
+    from motionlab.build.plan import Job, plan_line
 
     monkeypatch.setenv("MOTIONLAB_PRECISION", "bf16")
     line = plan_line([Job("m", lambda: None, (), 60.0, lambda: False)])
@@ -238,7 +238,7 @@ def test_the_plan_line_says_which_precision_trains(monkeypatch):
 
 
 def test_bf16_plans_use_the_measured_speedups(monkeypatch):
-    from motionlab.book_models import BF16_SPEEDUP, ESTIMATES_S, book_jobs, training_estimates
+    from motionlab.build.book_models import BF16_SPEEDUP, ESTIMATES_S, book_jobs, training_estimates
 
     assert training_estimates("laptop", "fp32") == ESTIMATES_S["laptop"]
     bf16 = training_estimates("laptop", "bf16")

@@ -79,7 +79,7 @@ class DiffusionTrainingConfig:
 
 
 # Small profiles: seconds of training (smoke); about 6 minutes on one CPU core (laptop: 800 steps of ~0.42 s, five
-# such models in the book, see motionlab.book_models). The learning rates are larger than the paper's 2e-4: these
+# such models in the book, see motionlab.build.book_models). The learning rates are larger than the paper's 2e-4: these
 # runs are hundreds of steps, not 110 epochs.
 _TRANSFORMER = {
     "smoke": dict(

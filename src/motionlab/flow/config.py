@@ -173,7 +173,7 @@ _PROFILES: dict[str, DisCoRDConfig] = {
     # the feed-forward decoder's between 2,200 and 4,500 steps (chapter 05's budget curve), so chapter 05's decoder
     # trains 4,000 steps, about 11 CPU-minutes, at lr 3e-3: at an equal budget it left less frame-wise jitter
     # (validation Noise sJPE 0.85 vs 0.90 at 1e-3) for the same sJPE. Chapter 04's projection ablation keeps 1,150
-    # steps (book_models.ABLATION_STEPS).
+    # steps (build.book_models.ABLATION_STEPS).
     # Code width = the laptop tokenizer's.
     "laptop": DisCoRDConfig(
         code_dim=64,

@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .profiles import env_threads
+from ..profiles import env_threads
 from .workers import elapsed_stamp, interrupt_when_orphaned, native_threads_for_children
 
 STALL_S = 180.0  # silent and idle this long while a cell runs: the kernel is stalled
@@ -243,11 +243,11 @@ def build_fingerprint(profile: str, home: str | Path) -> str:
     modification times: a retrained model changes it). A chapter whose notebook and this digest are unchanged
     since it last executed successfully gives the same outputs again.
     """
-    from .precision import network_precision
-    from .train.device import get_device
+    from ..precision import network_precision
+    from ..train.device import get_device
 
     digest = hashlib.sha256(f"{profile}:{network_precision(get_device(None))}".encode())
-    package = Path(__file__).resolve().parent
+    package = Path(__file__).resolve().parent.parent  # all of motionlab, not only build/
     for path in sorted(package.rglob("*")):
         if path.is_file() and "__pycache__" not in path.parts:
             digest.update(str(path.relative_to(package)).encode() + b"\0" + path.read_bytes())

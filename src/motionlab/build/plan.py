@@ -6,7 +6,7 @@ every job whose inputs are ready in a worker process (up to ``jobs`` at once, on
 2-core machine two 1-thread processes are faster and better behaved than one 2-thread process), prints
 one progress line per model and returns a table of times.
 
-Nothing here knows about motion: :mod:`motionlab.book_models` lists the book's models. Interrupting a
+Nothing here knows about motion: :mod:`motionlab.build.book_models` lists the book's models. Interrupting a
 plan is safe: each model publishes its cache folder by one atomic rename when it is done (see
 :mod:`motionlab.train.cache`), so a second run skips what finished and retrains (or resumes) the rest.
 """
@@ -23,8 +23,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any, TextIO
 
-from ..workers import elapsed_stamp, interrupt_when_orphaned, native_threads_for_children
-from .progress import add_progress_hook, disable_bars
+from ..train.progress import add_progress_hook, disable_bars
+from .workers import elapsed_stamp, interrupt_when_orphaned, native_threads_for_children
 
 _REPORT_EVERY_S = 2.0  # how often a worker forwards its step count
 
@@ -94,7 +94,7 @@ def _describe(todo: Sequence[Job], workers: int) -> str:
     names = ", ".join(job.name for job in todo)
     when = f"about {format_minutes(wall)}" + (f" with {workers} workers" if workers > 1 else "")
     from ..precision import explain_precision
-    from .device import get_device
+    from ..train.device import get_device
 
     precision, why = explain_precision(None, get_device(None))
     return (

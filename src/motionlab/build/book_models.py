@@ -1,6 +1,6 @@
 """Every model the book's chapters load, as one plan: what to train, in which order, how long it takes.
 
-``motionlab train book`` runs this plan (see :mod:`motionlab.train.plan`) before the chapters execute, so a
+``motionlab train book`` runs this plan (see :mod:`motionlab.build.plan`) before the chapters execute, so a
 chapter only loads from the cache. Each job's recipe is :func:`motionlab.models.load` of the job's name, the
 *same call* a chapter makes, so the cache keys agree by construction; a test checks that the chapters find
 everything cached after the plan ran.
@@ -27,9 +27,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from functools import lru_cache, partial
 
-from .profiles import get_profile
-from .train.cache import NotCached, cache_probe
-from .train.plan import Job
+from ..profiles import get_profile
+from ..train.cache import NotCached, cache_probe
+from .plan import Job
 
 # Training CPU seconds per model on one core of the reference machine (2 cores, two 1-thread workers), from
 # `motionlab train book --record` (book/data/build_times/laptop-training.json; laptop: a tokenizer step 0.25 s x 2,000,
@@ -83,7 +83,7 @@ BF16_SPEEDUP: dict[str, float] = {
 def job_precision(name: str, run_precision: str) -> str:
     """The precision the book's model ``name`` trains in when the run's is ``run_precision``: the run's, except for
     the evaluator, which always trains in fp32."""
-    from .metrics.evaluator_training import EVALUATOR_PRECISION
+    from ..metrics.evaluator_training import EVALUATOR_PRECISION
 
     return EVALUATOR_PRECISION if name == "evaluator" else run_precision
 
@@ -101,7 +101,7 @@ def training_estimates(profile: str, precision: str) -> dict[str, float]:
 @lru_cache(maxsize=4)
 def _dataset(profile: str, seed: int, data: str | None, home: str):
     # ``home`` (the cache root) is only part of the key: the embedded dataset lives there
-    from .data import load_dataset
+    from ..data import load_dataset
 
     return load_dataset(data, profile=profile, seed=seed)
 
@@ -113,7 +113,7 @@ def book_dataset(profile: str, seed: int = 0, data: str | None = None):
     first and then does its work (``motionlab evaluate``, ``generate``, ``train``) uses that same instance.
     :func:`forget_book_datasets` drops them (e.g. when the dataset's folder was rewritten meanwhile).
     """
-    from .paths import cache_dir
+    from ..paths import cache_dir
 
     return _dataset(profile, seed, data, str(cache_dir()))
 
@@ -133,7 +133,7 @@ def make_model(profile: str, seed: int, name: str, data: str | None = None, over
     ``seed`` is the data seed and a DisCoRD decoder's or toy flow's training seed; ``overrides`` change a DisCoRD
     decoder's config. The toy flows never read motion, so they do not load the dataset.
     """
-    from . import models  # lazy: models imports this module inside its functions
+    from .. import models  # lazy: models imports this module inside its functions
 
     dataset = None if name.startswith("toy_flow/") else book_dataset(profile, seed, data)
     models.load(name, dataset, profile, seed=seed, **(overrides or {}))
@@ -146,7 +146,7 @@ ABLATION_STEPS: dict[str, int] = {"laptop": 1150}
 def projection_config(profile: str, tokenizer, projection: str = "stacked", seed: int = 0, **overrides):
     """The DisCoRD config of chapter 04's ablation: chapter 05's decoder with the projection changed and, in the
     laptop profile, the smaller ablation budget (:data:`ABLATION_STEPS`, warm-up 5% of it)."""
-    from .flow import discord_config
+    from ..flow import discord_config
 
     steps = ABLATION_STEPS.get(get_profile(profile))
     budget = {"train_steps": steps, "warmup_steps": max(1, steps // 20)} if steps else {}
@@ -172,8 +172,8 @@ def book_jobs(
     ``data`` trains them on a dataset folder instead of the embedded data; ``flow_options`` override the
     config of the two ``stacked`` DisCoRD decoders (what ``train discord --predict ...`` does).
     """
-    from .precision import network_precision
-    from .train.device import get_device
+    from ..precision import network_precision
+    from ..train.device import get_device
 
     profile = get_profile(profile)
     cost = training_estimates(profile, network_precision(get_device(None)))
