@@ -33,6 +33,7 @@ import torch
 
 from ..estimate import Estimate
 from ..representation import get_skeleton
+from ..viz.tables import Table
 from ._checks import check_joints
 from .jerk import finite_difference_jerk, squared_length
 from .joints import ClipJoints
@@ -366,42 +367,22 @@ MEASUREMENT_LABELS = {
 }
 
 
-@dataclass(frozen=True)
-class MeasurementTable:
-    """Rows × columns of :class:`~motionlab.estimate.Estimate`, for reading: a cell prints as the estimate does
-    (two significant digits of its half-width, the value alone where it has none).
-
-    Unlike :class:`~motionlab.evaluation.EvaluationTable`'s fixed decimals, this shows columns that span orders of
-    magnitude (an FID of 1e-4 beside one of 3). A sweep's rows are its levels (numbers, printed with ``:g``).
+class MeasurementTable(Table):
+    """A :class:`~motionlab.viz.tables.Table` of :class:`~motionlab.estimate.Estimate` cells over a sweep's levels:
+    each cell prints as the estimate does (two significant digits of its half-width, the value alone where it has
+    none), so a column can span orders of magnitude (an FID of 1e-4 beside one of 3), unlike
+    :class:`~motionlab.evaluation.EvaluationTable`'s fixed decimals. Levels print with ``:g``; columns by
+    :data:`MEASUREMENT_LABELS`.
     """
-
-    index: str  # the header of the row-label column, e.g. "σ (normalised)"
-    rows: dict[Any, dict[str, Estimate]]
-    columns: tuple[str, ...] = ()  # default: every key of the rows, in first-seen order
-    notes: tuple[str, ...] = ()
-
-    def __post_init__(self):
-        if not self.rows:
-            raise ValueError("rows is empty")
-        if not self.columns:
-            object.__setattr__(self, "columns", tuple(dict.fromkeys(k for cells in self.rows.values() for k in cells)))
 
     @property
     def levels(self) -> list:
         """The row labels (a sweep's levels), in order."""
-        return list(self.rows)
+        return self.labels
 
     def estimate(self, row: Any, column: str) -> Estimate:
         """The cell ``rows[row][column]``; a missing row or column is named with what the table has."""
-        if row not in self.rows:
-            raise KeyError(f"no row {row!r}; rows: {self.levels}")
-        if column not in self.rows[row]:
-            raise KeyError(f"row {row!r} has no {column!r}; it has {list(self.rows[row])}")
-        return self.rows[row][column]
-
-    def column(self, column: str) -> list[Estimate]:
-        """One column, row by row (rows lacking it are skipped)."""
-        return [cells[column] for cells in self.rows.values() if column in cells]
+        return self.cell(row, column)
 
     def trend(self, column: str, name: str = "", quantity: str | None = None):
         """The column as a :func:`motionlab.report.trend` over the rows, each step judged by the one rule; a row is
@@ -409,18 +390,13 @@ class MeasurementTable:
         from motionlab.report import trend
 
         names = [f"{name}{_label(row)}" for row, cells in self.rows.items() if column in cells]
-        return trend(self.column(column), names, quantity=quantity or MEASUREMENT_LABELS.get(column, column))
+        return trend(self.column(column), names, quantity=quantity or self.header(column))
 
-    def to_markdown(self) -> str:
-        header = [self.index] + [MEASUREMENT_LABELS.get(c, c) for c in self.columns]
-        lines = ["| " + " | ".join(header) + " |", "|---|" + "---:|" * len(self.columns)]
-        for row, cells in self.rows.items():
-            values = [f"{cells[c]}" if c in cells else "–" for c in self.columns]
-            lines.append(f"| {_label(row)} | " + " | ".join(values) + " |")
-        return "\n".join(lines + [f"\n{note}" for note in self.notes])
+    def header(self, column: str) -> str:
+        return MEASUREMENT_LABELS.get(column, column)
 
-    def _repr_markdown_(self) -> str:
-        return self.to_markdown()
+    def row_label(self, label: Any) -> str:
+        return _label(label)
 
 
 def _label(row: Any) -> str:

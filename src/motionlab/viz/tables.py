@@ -84,7 +84,7 @@ class Table:
         if row not in self.rows:
             raise KeyError(f"no row {row!r}; rows: {self.labels}")
         if column not in self.rows[row]:
-            raise KeyError(f"row {row!r} has no column {column!r}; it has {list(self.rows[row])}")
+            raise KeyError(f"row {row!r} has no {column!r} (no column of that name); it has {list(self.rows[row])}")
         return self.rows[row][column]
 
     def column(self, column: str) -> list:
@@ -105,16 +105,26 @@ class Table:
             quantity=column,
         )
 
+    def header(self, column: str) -> str:
+        """A column's header as printed (subclasses name their columns for reading)."""
+        return column
+
+    def row_label(self, label: Hashable) -> str:
+        """A row's label as printed."""
+        return format_cell(label)
+
     def to_markdown(self) -> str:
         align = ["---"] + [
             "---:" if all(_numeric(c.get(k)) for c in self.rows.values()) else "---" for k in self.columns
         ]
         lines = [
-            "| " + " | ".join([self.index, *self.columns]) + " |",
+            "| " + " | ".join([self.index, *(self.header(k) for k in self.columns)]) + " |",
             "|" + "|".join(align) + "|",
         ]
         for label, cells in self.rows.items():
-            values = [format_cell(label)] + [format_cell(cells.get(k), self.formats.get(k, "")) for k in self.columns]
+            values = [self.row_label(label)] + [
+                format_cell(cells.get(k), self.formats.get(k, "")) for k in self.columns
+            ]
             lines.append("| " + " | ".join(values) + " |")
         return "\n".join(lines + [f"\n{note}" for note in self.notes])
 
