@@ -13,7 +13,6 @@ from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
 
-import nbformat
 import numpy as np
 import pytest
 
@@ -30,11 +29,7 @@ TABLE = "evaluate_reconstruction(dataset, evaluation, profile)"
 TIMED = "seconds"  # wall-clock times differ from run to run; every other number must agree exactly
 
 
-def chapter_code(path: Path) -> str:
-    return "\n".join(c.source for c in nbformat.read(path, as_version=4).cells if c.cell_type == "code")
-
-
-def test_chapter_05_computes_its_tables_with_these_expressions():
+def test_chapter_05_computes_its_tables_with_these_expressions(chapter_code):
     code = chapter_code(CHAPTER_05)
     assert f"evaluation = {CONFIG}" in code and f"table = {TABLE}" in code
     assert "evaluation.command_line(profile)" in code  # the page prints the command that gives its numbers
@@ -76,18 +71,11 @@ def _untimed(rows: dict) -> dict:
     return {row: {m: cell for m, cell in cells.items() if m != TIMED} for row, cells in rows.items()}
 
 
-def test_the_cli_prints_the_numbers_chapter_05_computes(chapter_table, tmp_path, capsys, monkeypatch):
+def test_the_cli_prints_the_numbers_chapter_05_computes(chapter_table, run_command_line):
     evaluation, table = chapter_table
-    monkeypatch.setenv("MOTIONLAB_PRECISION", "fp32")
-    out = tmp_path / "reconstruction.json"
-    argv = shlex.split(evaluation.command_line("smoke"))[1:] + ["--json", str(out)]
+    argv, printed, result = run_command_line(evaluation)
     assert argv[:4] == ["evaluate", "reconstruction", "--profile", "smoke"] and "--token-phases" in argv
-    args = cli.build_parser().parse_args(argv)
-    assert cli._evaluation_config(args, args.repeats) == evaluation  # the command line is the chapter's config
-    assert cli.main(argv) == 0
-    printed = capsys.readouterr().out
     assert printed.startswith(table.header())
-    result = json.loads(out.read_text())
     expected = json.loads(json.dumps(table.to_json_dict()))  # JSON's lists for the config's tuples
     assert result["config"] == expected["config"] and result["counts"] == {"clips": 12}
     assert result["metrics"] == expected["metrics"] and result["notes"] == expected["notes"]

@@ -13,7 +13,6 @@ from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
 
-import nbformat
 import numpy as np
 import pytest
 
@@ -30,11 +29,7 @@ CONFIG = "TextToMotionConfig.from_sizes(sizes.diffusion, seed=seed)"
 TABLE = "evaluate_t2m(dataset, config)"
 
 
-def chapter_code(path: Path) -> str:
-    return "\n".join(c.source for c in nbformat.read(path, as_version=4).cells if c.cell_type == "code")
-
-
-def test_chapter_07_computes_its_table_with_these_expressions():
+def test_chapter_07_computes_its_table_with_these_expressions(chapter_code):
     code = chapter_code(CHAPTER_07)
     assert f"config = {CONFIG}" in code and f"table = {TABLE}" in code
 
@@ -62,18 +57,11 @@ def chapter_table(small_sizes):
     return config, table
 
 
-def test_the_cli_prints_the_numbers_chapter_07_computes(chapter_table, tmp_path, capsys, monkeypatch):
+def test_the_cli_prints_the_numbers_chapter_07_computes(chapter_table, run_command_line):
     config, table = chapter_table
-    monkeypatch.setenv("MOTIONLAB_PRECISION", "fp32")
-    out = tmp_path / "t2m.json"
-    argv = shlex.split(config.command_line("smoke"))[1:] + ["--json", str(out)]
+    argv, printed, result = run_command_line(config)
     assert argv[:4] == ["evaluate", "t2m", "--profile", "smoke"] and "--token-stats" in argv
-    args = cli.build_parser().parse_args(argv)
-    assert cli._evaluation_config(args, args.repeats) == config  # the command line is the chapter's config
-    assert cli.main(argv) == 0
-    printed = capsys.readouterr().out
     assert table.to_markdown() in printed  # every row, every number, the notes
-    result = json.loads(out.read_text())
     expected = json.loads(json.dumps(table.to_json_dict()))  # JSON's lists for the config's tuples
     assert result["rows"] == expected["rows"] and result["config"] == expected["config"]
     assert list(result["rows"]) == [

@@ -13,7 +13,6 @@ from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
 
-import nbformat
 import numpy as np
 import pytest
 
@@ -33,11 +32,7 @@ UNIFORM = 'paper_config(design, seed=seed, model="t2m/uniform", methods=("indepe
 TPS, INDEPENDENT = "TPS (T_s = 90)", "Independent (tokens concatenated)"
 
 
-def chapter_code(path: Path) -> str:
-    return "\n".join(c.source for c in nbformat.read(path, as_version=4).cells if c.cell_type == "code")
-
-
-def test_chapter_09_computes_its_tables_with_these_expressions():
+def test_chapter_09_computes_its_tables_with_these_expressions(chapter_code):
     code = chapter_code(CHAPTER_09)
     assert f"config = {CONFIG}" in code and f"table = {TABLE}" in code
     assert f"evaluate_multi(dataset, {UNIFORM})" in code
@@ -62,18 +57,11 @@ def chapter():
     return SimpleNamespace(config=config, table=table, generated=generated, uniform=uniform)
 
 
-def test_the_cli_prints_the_numbers_chapter_09_computes(chapter, tmp_path, capsys, monkeypatch):
+def test_the_cli_prints_the_numbers_chapter_09_computes(chapter, run_command_line):
     config, table = chapter.config, chapter.table
-    monkeypatch.setenv("MOTIONLAB_PRECISION", "fp32")
-    out = tmp_path / "multi.json"
-    argv = shlex.split(config.command("smoke"))[1:] + ["--json", str(out)]
+    argv, printed, result = run_command_line(config)
     assert argv[:4] == ["evaluate", "multi", "--profile", "smoke"] and "--segment-jerk" in argv
-    args = cli.build_parser().parse_args(argv)
-    assert cli._evaluation_config(args, args.repeats) == config  # the command line is the chapter's config
-    assert cli.main(argv) == 0
-    printed = capsys.readouterr().out
     assert table.to_markdown() in printed  # every row, every number, the notes (the ground-truth Jerks among them)
-    result = json.loads(out.read_text())
     expected = json.loads(json.dumps(table.to_json_dict()))
     assert result["rows"] == expected["rows"] and result["config"] == expected["config"]
     assert list(result["rows"]) == [GROUND_TRUTH_SINGLE, GROUND_TRUTH_CONCAT, *method_rows(PAPER_METHODS, 90)]
@@ -135,10 +123,10 @@ def test_paper_config_takes_a_chapters_sizes():
 @pytest.mark.parametrize("profile", ["smoke", "laptop", "full"])
 def test_the_command_line_parses_back_into_the_config(profile):
     config = paper_config(chapter_sizes(profile).tps, seed=1)
-    args = cli.build_parser().parse_args(shlex.split(config.command(profile))[1:])
+    args = cli.build_parser().parse_args(shlex.split(config.command_line(profile))[1:])
     assert args.profile == profile and cli._evaluation_config(args, args.repeats) == config
     flow = replace(config, decoder="discord", methods=("independent", "tps"), steps=4, solver="midpoint")
-    args = cli.build_parser().parse_args(shlex.split(flow.command(profile))[1:])
+    args = cli.build_parser().parse_args(shlex.split(flow.command_line(profile))[1:])
     assert cli._evaluation_config(args, args.repeats) == flow
 
 

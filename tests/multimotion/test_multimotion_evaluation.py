@@ -13,7 +13,6 @@ from motionlab.multimotion import (
     GROUND_TRUTH_SINGLE,
     METRICS,
     MultiActionInstance,
-    MultiMotion,
     build_reference,
     evaluate_ground_truth_single,
     evaluate_methods,
@@ -149,30 +148,14 @@ def test_repeats_become_estimates_without_their_nan_runs():
     assert np.isnan(lost.mean) and lost.n == 0
 
 
-class NoisyConcat:
-    """A stand-in generator: each instance's real clips back to back, plus noise seeded by ``seed`` and the method."""
-
-    def __init__(self, instances):
-        self.by_texts = {tuple(inst.texts): inst for inst in instances}
-
-    def generate(self, texts, lengths, *, method, seed, **kw):
-        rng = np.random.default_rng([seed, len(method)])
-        out = []
-        for t in texts:
-            features, bounds = self.by_texts[tuple(t)].real_concat()
-            noisy = features + rng.normal(0, 0.01, features.shape).astype(np.float32)
-            out.append(MultiMotion(noisy, bounds, list(t), method))
-        return out
-
-
-def test_evaluate_methods_rows_and_the_samples_behind_them(setup):
+def test_evaluate_methods_rows_and_the_samples_behind_them(setup, noisy_concat):
     _, instances, evaluator, reference = setup
     gt = ground_truth_jerks(instances, rng=5)
     samples, generated = {}, {}
     methods = {"a": {"method": "tps"}, "b": {"method": "independent"}}
     kw = dict(methods=methods, repeats=2, seed=3)
     rows = evaluate_methods(
-        NoisyConcat(instances),
+        noisy_concat(instances, by_method=True),
         instances,
         evaluator,
         reference,
@@ -210,11 +193,11 @@ def test_evaluate_methods_rows_and_the_samples_behind_them(setup):
         assert samples[label]["segment_jerk"] == inside
     assert len(samples["a"]["jerk"]) == len(samples["b"]["jerk"]) == 2 * sum(len(i.lengths) - 1 for i in instances)
     # without ground_truth: measured on the instances themselves, rng = seed
-    plain = evaluate_methods(NoisyConcat(instances), instances, evaluator, reference, **kw)
+    plain = evaluate_methods(noisy_concat(instances, by_method=True), instances, evaluator, reference, **kw)
     assert plain[GROUND_TRUTH_SINGLE]["jerk"] == mean_ci(ground_truth_jerks(instances, rng=3).single)
     assert "segment_jerk" not in plain["a"] and plain["a"] == {k: v for k, v in rows["a"].items() if k in METRICS}
     with pytest.raises(ValueError, match="samples must be a dict"):
-        evaluate_methods(NoisyConcat(instances), instances, evaluator, reference, **kw, samples=[])
+        evaluate_methods(noisy_concat(instances, by_method=True), instances, evaluator, reference, **kw, samples=[])
 
 
 def test_ground_truth_jerks_are_samples_of_the_two_table_rows(setup):

@@ -67,22 +67,6 @@ def test_short_segments_are_skipped(clips):
         segment_jerk([(features, bounds)], rng="zero")
 
 
-class NoisyConcat:
-    """A stand-in generator: the instance's real clips back to back, plus seeded noise on the features."""
-
-    def __init__(self, instances):
-        self.by_texts = {tuple(inst.texts): inst for inst in instances}
-
-    def generate(self, texts, lengths, *, method, seed, **kw):
-        rng = np.random.default_rng(seed)
-        out = []
-        for t in texts:
-            features, bounds = self.by_texts[tuple(t)].real_concat()
-            noisy = features + rng.normal(0, 0.01, features.shape).astype(np.float32)
-            out.append(MultiMotion(noisy, bounds, list(t), method))
-        return out
-
-
 class MeanStd:
     def embed_motions(self, motions):
         return np.stack([np.concatenate([m[:, 1:9].mean(0), m[:, 1:9].std(0)]) for m in motions])
@@ -91,13 +75,13 @@ class MeanStd:
         return np.stack([np.full(16, float(len(c.text))) for c in captions])
 
 
-def test_evaluate_methods_hands_back_the_scored_motions(clips):
+def test_evaluate_methods_hands_back_the_scored_motions(clips, noisy_concat):
     instances = [_instance(clips, order) for order in ([0, 1, 2], [3, 2, 1], [1, 3, 0], [2, 0, 3])]
     evaluator = MeanStd()
     reference = build_reference(evaluator, [c.features for c in clips], rng=0, n_windows=12)
     generated: dict = {}
     rows = evaluate_methods(
-        NoisyConcat(instances),
+        noisy_concat(instances),
         instances,
         evaluator,
         reference,
@@ -112,4 +96,4 @@ def test_evaluate_methods_hands_back_the_scored_motions(clips):
     rescored = [evaluate_multimotion(evaluator, generated["tps"][r], captions, reference, rng=3 + r) for r in range(2)]
     assert rows["tps"] == {k: mean_ci([run[k] for run in rescored]) for k in rescored[0]}
     with pytest.raises(ValueError, match="generated"):
-        evaluate_methods(NoisyConcat(instances), instances, evaluator, reference, generated=[])
+        evaluate_methods(noisy_concat(instances), instances, evaluator, reference, generated=[])

@@ -205,7 +205,7 @@ class MultiMotionConfig:
                 args += [option, ",".join(value) if f.name == "methods" else str(value)]
         return args
 
-    def command(self, profile: str | None = None) -> str:
+    def command_line(self, profile: str | None = None) -> str:
         """The shell command that prints this table: ``motionlab evaluate multi --profile ... <options>``."""
         return " ".join(["motionlab evaluate multi", "--profile", get_profile(profile), *self.cli_args()])
 
