@@ -38,16 +38,19 @@ def one_torch_thread():
     torch.set_num_threads(previous)
 
 
-RUN_SETTINGS = ("MOTIONLAB_PROFILE", "MOTIONLAB_PRECISION", "MOTIONLAB_THREADS")
+RUN_SETTINGS = ("MOTIONLAB_PROFILE", "MOTIONLAB_PRECISION", "MOTIONLAB_THREADS", "MOTIONLAB_FORCE_PRECISION")
 
 
 @pytest.fixture(autouse=True)
 def fp32_run_settings():
     """Unit tests run in fp32, whatever the CPU: the exactness checks against the official code are fp32 checks,
     and the bf16 path has tests of its own that ask for it. A test that applies run settings (every CLI call
-    does: they are exported to the environment) must not leak them into the next test."""
+    does: they are exported to the environment) must not leak them into the next test. A test that asks for bf16
+    gets it on any CPU (its models are tiny): the refusal of bf16 where a CPU has no bf16 instructions has tests of
+    its own, which clear ``MOTIONLAB_FORCE_PRECISION``."""
     saved = {name: os.environ.get(name) for name in RUN_SETTINGS}
     os.environ["MOTIONLAB_PRECISION"] = "fp32"
+    os.environ["MOTIONLAB_FORCE_PRECISION"] = "1"
     yield
     for name, value in saved.items():
         if value is None:

@@ -29,11 +29,12 @@ def _data_check(args: argparse.Namespace) -> int:
 
 
 def _data_make_embedded(args: argparse.Namespace) -> int:
-    from .data.embedded import EMBEDDED_SIZES, ensure_embedded, write_embedded_dataset
+    from .data.embedded import ensure_embedded, write_embedded_dataset
+    from .sizes import run_sizes
 
     if args.out is None:
         if args.clips is not None:  # the cached dataset's size is the profile's: never ignore --clips silently
-            size = EMBEDDED_SIZES[args.settings.profile]
+            size = run_sizes(args.settings.profile).embedded_clips
             raise ValueError(
                 f"--clips needs --out: the cached dataset of a profile has its own size ({size} clips "
                 f"for {args.settings.profile}); write a custom size to a folder of your own"
@@ -46,7 +47,7 @@ def _data_make_embedded(args: argparse.Namespace) -> int:
             print(f"error: {out} already exists; choose a new folder", file=sys.stderr)
             return 2
         _check_writable_folder(out.parent, "--out")
-        n = args.clips or EMBEDDED_SIZES[args.settings.profile]
+        n = args.clips or run_sizes(args.settings.profile).embedded_clips
         path = write_embedded_dataset(out, n_clips=n, seed=args.seed)
     print(path)
     return 0
@@ -477,53 +478,10 @@ def _check_evaluation_size(config) -> None:
 
 
 def _evaluation_config(args: argparse.Namespace, repeats: int):
-    """The task's config from the parsed options (the config validates them)."""
-    from .evaluation import FLOW_OPTIONS, MultiMotionConfig, ReconstructionConfig, TextToMotionConfig
+    """The task's config from the parsed options (``CLI_OPTIONS``; the config validates them)."""
+    from .evaluation import CONFIGS, config_from_options
 
-    common = dict(
-        split=args.split, repeats=repeats, seed=args.seed, decoder=args.decoder, steps=args.steps, solver=args.solver
-    )
-    if args.task == "reconstruction":
-        flow = {name: getattr(args, name) for name in FLOW_OPTIONS}
-        table_e = dict(grid=args.grid, grid_repeats=args.grid_repeats, timing_repeats=args.timing_repeats)
-        extra = dict(jerk=args.jerk, token_phases=args.token_phases, **table_e)
-        return ReconstructionConfig(tokenizer=args.tokenizer, limit=args.limit, **extra, **flow, **common)
-    sampling = dict(num_steps=args.num_steps, guidance_scale=args.guidance_scale)
-    if args.task == "t2m":
-        return TextToMotionConfig(
-            limit=args.limit,
-            multimodality=args.multimodality,
-            mm_texts=args.mm_texts,
-            mm_repeats=args.mm_repeats,
-            models=tuple(m.strip() for m in args.models.split(",")),
-            guidance_scales=_numbers(args.guidance_scales, "--guidance-scales"),
-            top_p=args.top_p,
-            reconstruction=args.reconstruction,
-            token_stats=args.token_stats,
-            **sampling,
-            **common,
-        )
-    methods = tuple(m.strip() for m in args.methods.split(","))
-    return MultiMotionConfig(
-        methods=methods,
-        model=args.model,
-        instances=args.instances,
-        actions=args.actions,
-        T_s=args.T_s,
-        segment_jerk=args.segment_jerk,
-        **sampling,
-        **common,
-    )
-
-
-def _numbers(text: str | None, option: str) -> tuple[float, ...]:
-    """``"0,1,2,4"`` -> ``(0.0, 1.0, 2.0, 4.0)``; None -> ``()``."""
-    if text is None:
-        return ()
-    try:
-        return tuple(float(x) for x in text.split(","))
-    except ValueError as err:
-        raise ValueError(f"{option} must be comma-separated numbers, got {text!r}") from err
+    return config_from_options(args.task, CONFIGS[args.task], {**vars(args), "repeats": repeats})
 
 
 def _add_flow_training_options(parser: argparse.ArgumentParser) -> None:
@@ -721,11 +679,19 @@ def _add_evaluate(sub) -> None:
 def _settings(args: argparse.Namespace):
     """The run's settings, resolved once from the options and the environment, and made the run's (exported, so
     that worker processes and chapter kernels inherit them); every command reads them from ``args.settings``."""
+    from .precision import explain_precision
     from .settings import apply_settings, resolve_settings
+    from .train.device import get_device
 
     if args.threads is not None and args.threads < 1:
         raise ValueError(f"--threads must be a positive int, got {args.threads}")
-    return apply_settings(resolve_settings(getattr(args, "profile", None), args.precision, args.threads))
+    if args.force_precision:
+        if args.precision is None:
+            raise ValueError("--force-precision insists on a --precision; give one")
+        os.environ["MOTIONLAB_FORCE_PRECISION"] = "1"  # exported: workers and chapter kernels insist too
+    settings = apply_settings(resolve_settings(getattr(args, "profile", None), args.precision, args.threads))
+    explain_precision(settings.precision, get_device(getattr(args, "device", None)))  # refuses before any work
+    return settings
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -743,7 +709,13 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="numeric precision of training and sampling (default: $MOTIONLAB_PRECISION, else auto: "
         "bf16 where the CPU has bf16 matrix units (AMX, or AVX512-BF16 on AMD) or the GPU "
-        "supports it, else fp32); metrics, losses and weights stay fp32",
+        "supports it, else fp32); metrics, losses and weights stay fp32. bf16 on a CPU with neither AMX nor "
+        "AVX512-BF16 is refused (hundreds of times slower than fp32 there)",
+    )
+    parser.add_argument(
+        "--force-precision",
+        action="store_true",
+        help="run the --precision asked for even where it is refused (default: $MOTIONLAB_FORCE_PRECISION)",
     )
     sub = parser.add_subparsers(dest="command", required=True)
 

@@ -140,6 +140,42 @@ def cpu_bf16_units(info: CPUInfo, isa_cap: str | None = None) -> tuple[bool, str
     return False, "no bf16 matrix units"
 
 
+# Measured on an AMD EPYC Zen 3 (AVX2 and FMA, no AVX-512), one thread: oneDNN without bf16 instructions falls back to
+# reference code, and a bf16 matmul ran at 0.27 GFLOP/s against fp32's 75.
+BF16_WITHOUT_UNITS_SLOWDOWN = 275
+
+
+def bf16_refusal(info: CPUInfo, isa_cap: str | None = None) -> str | None:
+    """Why ``bf16`` cannot run at a usable speed on this CPU (one line), or None where it can.
+
+    It can wherever the CPU has bf16 instructions oneDNN may use (AMX tiles or AVX512-BF16), even where ``auto``
+    prefers fp32 (AVX512-BF16 on Intel without AMX: 1.23x slower, not hundreds). A pure function of the flags
+    :func:`cpu_bf16_units` reads."""
+    flags = info.flags
+    if not ({"amx_bf16", "amx_tile"} <= flags or "avx512_bf16" in flags):
+        why = "has neither AMX nor AVX512-BF16"
+    elif not _allows(isa_cap, "AVX512_CORE_BF16"):
+        why = f"has its bf16 instructions switched off (ONEDNN_MAX_CPU_ISA={isa_cap})"
+    else:
+        return None
+    return (
+        f"precision bf16 refused on {info.summary}: this CPU {why}, so its bf16 matrix products run in reference code "
+        f"(measured {BF16_WITHOUT_UNITS_SLOWDOWN}x slower than fp32 on an AVX2-only AMD EPYC); use fp32 (what auto "
+        "picks here), or insist with --force-precision (MOTIONLAB_FORCE_PRECISION=1)"
+    )
+
+
+def precision_forced(environ: dict[str, str] | None = None) -> bool:
+    """Whether ``$MOTIONLAB_FORCE_PRECISION`` (``--force-precision``) insists on the requested precision."""
+    env = os.environ if environ is None else environ
+    return env.get("MOTIONLAB_FORCE_PRECISION", "").strip().lower() in ("1", "true", "yes")
+
+
+@lru_cache(maxsize=8)
+def _cpu_bf16_refusal(isa_cap: str | None) -> str | None:
+    return bf16_refusal(read_cpu_info(), isa_cap)
+
+
 def check_precision(value: object) -> str:
     """``value`` as one of :data:`PRECISIONS` (case-insensitive), or a ``ValueError`` naming the choices."""
     text = str(value).strip().lower()
@@ -172,8 +208,14 @@ def resolve_precision(precision: str | None = None, device: str | torch.device =
 
 
 def explain_precision(precision: str | None = None, device: str | torch.device = "cpu") -> tuple[str, str]:
-    """``(resolved, reason)``: e.g. ``("bf16", "auto: AMX tiles")`` or ``("fp32", "asked for")``."""
+    """``(resolved, reason)``: e.g. ``("bf16", "auto: AMX tiles")`` or ``("fp32", "asked for")``.
+
+    ``bf16`` on a CPU without bf16 instructions is refused (:func:`bf16_refusal`) unless :func:`precision_forced`."""
     requested = requested_precision(precision)
+    if requested == "bf16" and torch.device(device).type == "cpu" and not precision_forced():
+        refusal = _cpu_bf16_refusal(onednn_isa_cap())
+        if refusal is not None:
+            raise ValueError(refusal)
     if requested != "auto":
         return requested, "asked for"
     resolved, why = _auto(torch.device(device).type, onednn_isa_cap())
@@ -266,12 +308,14 @@ def _to_fp32(value):
 
 
 __all__ = [
+    "BF16_WITHOUT_UNITS_SLOWDOWN",
     "DEFAULT_PRECISION",
     "PRECISIONS",
     "RESOLVED",
     "CPUInfo",
     "attention_kernel",
     "autocast",
+    "bf16_refusal",
     "check_precision",
     "cpu_bf16_units",
     "explain_precision",
@@ -280,6 +324,7 @@ __all__ = [
     "network_autocast",
     "network_precision",
     "onednn_isa_cap",
+    "precision_forced",
     "read_cpu_info",
     "requested_precision",
     "resolve_precision",

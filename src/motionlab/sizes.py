@@ -7,9 +7,11 @@ them for a profile, and :func:`motionlab.book.setup` hands them to a chapter as 
     settings = book.setup(seed=seed, profile=profile)
     sizes = settings.sizes.tps          # TPSSizes(instances=32, repeats=3, ...) on the laptop profile
 
-The sizes of the models themselves (widths, training steps) live with their configs (``flow/config.py``,
-``tokenizers/config.py``, ``diffusion/training.py``, ``metrics/evaluator_training.py``): the chapters load those
-models by name (:func:`motionlab.models.load`) and never size them.
+The models' sizes (widths, codebooks, training steps) and the run-wide ones (the embedded dataset, evaluation repeats)
+follow the same idiom further down: each config class's defaults are the papers' (``full``), and a dict per model
+holds the fields that the smaller profiles change; the config functions (``tokenizers.vq_config``,
+``flow.discord_config``, ``diffusion.diffusion_training_config``, ...) apply them with :func:`resized`. The chapters
+load those models by name (:func:`motionlab.models.load`) and never size them.
 """
 
 from __future__ import annotations
@@ -207,11 +209,225 @@ TPS = {
 }
 
 
+# ------------------------------------------------------------------------------------------------ run-wide
+@dataclass(frozen=True)
+class RunSizes:
+    """What every chapter and command of a run shares."""
+
+    embedded_clips: int = 6000  # clips of the embedded procedural dataset (HumanML3D's test split has 4,384)
+    evaluation_repeats: int = 20  # repeats of a sampled row in `motionlab evaluate` (the papers repeat 20 times)
+
+
+RUN = {
+    "smoke": {"embedded_clips": 420, "evaluation_repeats": 2},
+    "laptop": {"embedded_clips": 3000, "evaluation_repeats": 5},
+}
+
+
+# ------------------------------------------------------------------------------------------------ models
+# Fields of each model's config that smoke and laptop change; its class's defaults are the papers' sizes. A dict
+# value changes fields of a nested config (a tokenizer's ``train``) and keeps the rest of it. Every model's cache key
+# hashes its whole config: changing a number here retrains that model for every reader.
+
+# VQConfig / RVQConfig (tokenizers/config.py). Both small profiles train with a cosine schedule, so the published
+# multistep milestones are cleared; no dropout and no Gumbel sampling (MoMask's) at these lengths.
+TOKENIZER = {
+    "smoke": {
+        "width": 32,
+        "depth": 1,
+        "code_dim": 16,
+        "codebook_size": 32,
+        "window": 16,
+        "batch_size": 8,
+        "dropout": 0.0,
+        "gumbel_temperature": 0.0,
+        "train": {
+            "steps": 40,
+            "lr": 2e-3,
+            "schedule": "cosine",
+            "warmup_steps": 5,
+            "milestones": (),
+            "gamma": 0.1,
+            "log_every": 10,
+            "ckpt_every": 0,
+        },
+    },
+    "laptop": {
+        "width": 128,
+        "depth": 2,
+        "code_dim": 64,
+        "codebook_size": 256,
+        "window": 64,
+        "batch_size": 32,
+        "dropout": 0.0,
+        "gumbel_temperature": 0.0,
+        "train": {
+            "steps": 2000,
+            "lr": 1e-3,
+            "schedule": "cosine",
+            "warmup_steps": 100,
+            "min_lr_ratio": 0.05,
+            "milestones": (),
+            "gamma": 0.1,
+            "grad_clip": 1.0,
+            "log_every": 50,
+            "ckpt_every": 500,
+        },
+    },
+}
+RVQ_TOKENIZER = {"smoke": {**TOKENIZER["smoke"], "num_layers": 3}, "laptop": TOKENIZER["laptop"]}
+
+# DisCoRDConfig (flow/config.py). Smoke: seconds of training, code width = the smoke tokenizer's. Laptop: chosen by
+# measurement (chapter 05, experiments/discord_sweep.py): under 10 minutes of fp32 training on one core of a 2-core
+# machine (data v2), the paper's velocity U-Net at width 272 got ~420 steps and stayed rough; an x-predicting U-Net of
+# width 128 (no noise floor below the 263 features) got ~1,300 steps and the lowest validation sJPE, decoded from zero
+# start noise (temperature 0: the paper samples at 1; chapter 05 reports the cost). Its budget, re-measured on data v3
+# in bf16 (AMD EPYC, AVX512-BF16, 0.16 s per step): sJPE falls below the feed-forward decoder's between 2,200 and 4,500
+# steps (chapter 05's budget curve), so chapter 05's decoder trains 4,000 steps, about 11 CPU-minutes, at lr 3e-3: at
+# an equal budget it left less frame-wise jitter (validation Noise sJPE 0.85 vs 0.90 at 1e-3) for the same sJPE.
+DISCORD_DECODER = {
+    "smoke": {
+        "code_dim": 16,
+        "cond_dim": 16,
+        "width": 16,
+        "sample_steps": 4,
+        "solver": "euler",
+        "window": 16,
+        "batch_size": 16,
+        "lr": 1e-3,
+        "min_lr": 1e-4,
+        "train_steps": 60,
+        "warmup_steps": 5,
+        "ema_decay": 0.9,
+    },
+    "laptop": {
+        "code_dim": 64,
+        "cond_dim": 64,
+        "width": 128,
+        "width_mults": (1, 1),
+        "sample_steps": 8,
+        "solver": "midpoint",
+        "prediction": "x",
+        "normalization": "std",
+        "temperature": 0.0,
+        "batch_size": 32,
+        "lr": 3e-3,
+        "train_steps": 4000,
+        "warmup_steps": 200,
+        "ema_decay": 0.995,
+    },
+}
+# Chapter 04's three projection-ablation decoders, on top of DISCORD_DECODER: at chapter 05's full budget the three
+# would add more than half to the book's training time; at a quarter of this one (tried while sizing the build) they
+# were far from converged and the ablation meaningless. Warm-up stays 5% of the steps.
+DISCORD_ABLATION = {"smoke": {}, "laptop": {"train_steps": 1150, "warmup_steps": 57}}
+
+# TransformerConfig (diffusion/transformer.py), the denoiser. Laptop: about 6 minutes on one CPU core (800 steps of
+# ~0.42 s; the book trains ten such models, see motionlab.build.book_models). The learning rates are larger than the
+# paper's 2e-4: these runs are hundreds of steps, not 110 epochs.
+DENOISER = {
+    "smoke": {
+        "n_layers": 2,
+        "n_heads": 2,
+        "d_model": 32,
+        "d_ff": 64,
+        "rel_buckets": 16,
+        "rel_max_distance": 32,
+        "batch_size": 16,
+        "train_steps": 150,
+        "lr": 2e-3,
+        "lr_decayed": 2e-4,
+    },
+    "laptop": {
+        "n_layers": 3,
+        "n_heads": 4,
+        "d_model": 128,
+        "d_ff": 256,
+        "rel_buckets": 32,
+        "rel_max_distance": 64,
+        "batch_size": 32,
+        "train_steps": 800,
+        "lr": 1e-3,
+        "lr_decayed": 1e-4,
+    },
+}
+# WordEncoderConfig and DiffusionTrainingConfig (diffusion/training.py): the text encoder trained beside it, and the
+# rest of its training.
+WORD_ENCODER = {"smoke": {"dim": 32, "n_layers": 1, "n_heads": 2}, "laptop": {"dim": 128, "n_layers": 1, "n_heads": 4}}
+DIFFUSION_TRAINING = {"smoke": {"warmup_steps": 10, "log_every": 10}, "laptop": {"warmup_steps": 100, "log_every": 50}}
+
+# EvaluatorTrainingConfig (metrics/evaluator_training.py): the text-motion evaluator trained on the embedded data
+# (full: the official networks, which real HumanML3D replaces with the released weights).
+EVALUATOR = {
+    "smoke": {
+        "evaluator": {
+            "dim_word": 32,
+            "dim_text_hidden": 32,
+            "dim_motion_hidden": 48,
+            "dim_coemb": 32,
+            "dim_movement_hidden": 48,
+            "dim_movement_latent": 48,
+        },
+        "steps": 120,
+        "lr": 2e-3,
+        "grad_clip": 1.0,
+        "val_every": 40,
+    },
+    "laptop": {
+        "evaluator": {
+            "dim_word": 64,
+            "dim_text_hidden": 128,
+            "dim_motion_hidden": 128,
+            "dim_movement_hidden": 128,
+            "dim_movement_latent": 128,
+        },
+        "steps": 800,
+        "lr": 1e-3,
+        "grad_clip": 1.0,
+        "val_every": 200,
+    },
+}
+
+# ToyFlowConfig (flow/toy.py), chapter 03's 2-D flow: only the training length changes.
+TOY_FLOW = {"smoke": {"steps": 300}, "laptop": {"steps": 5000}}
+
+MODEL_TABLES = {
+    "tokenizer/vq": TOKENIZER,
+    "tokenizer/rvq": RVQ_TOKENIZER,
+    "discord": DISCORD_DECODER,
+    "discord/ablation": DISCORD_ABLATION,
+    "denoiser": DENOISER,
+    "word_encoder": WORD_ENCODER,
+    "diffusion_training": DIFFUSION_TRAINING,
+    "evaluator": EVALUATOR,
+    "toy_flow": TOY_FLOW,
+}
+
+
+def resized(config: Any, table: dict[str, dict[str, Any]], profile: str | None = None) -> Any:
+    """``config`` (a dataclass, its ``full`` size) with ``table``'s changes for ``profile`` applied.
+
+    A dict value changes the named fields of the nested config it replaces and keeps its others."""
+    profile = get_profile(profile)
+    changes = {}
+    for name, value in table.get(profile, {}).items():
+        if name not in {f.name for f in fields(config)}:
+            raise ValueError(f"{profile} sizes name {name!r}, not a field of {type(config).__name__}")
+        changes[name] = resized(getattr(config, name), {profile: value}, profile) if isinstance(value, dict) else value
+    return replace(config, **changes)
+
+
+def run_sizes(profile: str | None = None) -> RunSizes:
+    """The :class:`RunSizes` of ``profile`` (default: the run's, ``$MOTIONLAB_PROFILE``)."""
+    return resized(RunSizes(), RUN, profile)
+
+
 @dataclass(frozen=True)
 class Sizes:
     """Every chapter's sizes for one profile (``settings.sizes``)."""
 
     profile: str
+    run: RunSizes
     motion_data: MotionDataSizes
     vq: VQSizes
     flow: FlowSizes
@@ -256,7 +472,7 @@ def chapter_sizes(profile: str | None = None) -> Sizes:
         if bad:
             raise ValueError(f"{name}: {profile} overrides {sorted(bad)}, not fields of {kind.__name__}")
         parts[name] = replace(kind(), **changes)
-    return Sizes(profile=profile, **parts)
+    return Sizes(profile=profile, run=run_sizes(profile), **parts)
 
 
 __all__ = [
@@ -265,10 +481,13 @@ __all__ = [
     "FlowSizes",
     "MotionDataSizes",
     "ProjectionSizes",
+    "RunSizes",
     "SJPESizes",
     "Sizes",
     "TPSSizes",
     "TransitionsSizes",
     "VQSizes",
     "chapter_sizes",
+    "resized",
+    "run_sizes",
 ]

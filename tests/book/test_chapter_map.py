@@ -103,13 +103,14 @@ def test_recorded_times_name_the_precision_each_model_trained_in(tmp_path, monke
 
 
 def test_chapter_04s_ablation_has_its_own_budget_where_the_profile_says_so():
-    from motionlab.build.book_models import ABLATION_STEPS, projection_config
+    from motionlab.build.book_models import projection_config
     from motionlab.flow import discord_config
+    from motionlab.sizes import DISCORD_ABLATION
 
     for profile in ("smoke", "laptop", "full"):
         own = discord_config(profile)
         ablation = {kind: projection_config(profile, None, kind) for kind in ("stacked", "repeat", "transposed")}
-        steps = ABLATION_STEPS.get(profile, own.train_steps)
+        steps = DISCORD_ABLATION.get(profile, {}).get("train_steps", own.train_steps)
         assert {c.train_steps for c in ablation.values()} == {steps}
         assert {c.projection for c in ablation.values()} == {"stacked", "repeat", "transposed"}
         # apart from the projection and the budget, the ablation is chapter 05's decoder
@@ -117,4 +118,5 @@ def test_chapter_04s_ablation_has_its_own_budget_where_the_profile_says_so():
         assert all({k: v for k, v in c.to_dict().items() if k in same} == same for c in ablation.values())
         # the stacked ablation decoder is chapter 05's own exactly where the budgets agree
         assert (ablation["stacked"] == own) == (steps == own.train_steps)
-    assert ABLATION_STEPS["laptop"] < discord_config("laptop").train_steps
+    assert DISCORD_ABLATION["laptop"]["train_steps"] < discord_config("laptop").train_steps
+    assert DISCORD_ABLATION["laptop"]["warmup_steps"] == DISCORD_ABLATION["laptop"]["train_steps"] // 20

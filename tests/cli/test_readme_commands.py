@@ -67,11 +67,12 @@ def test_every_command_uses_the_venv_and_parses():
 
 
 def test_readme_commands_run_in_smoke(tmp_path, monkeypatch, request, capsys):
-    from motionlab.data.embedded import EMBEDDED_SIZES, embedded_path
+    from motionlab.data.embedded import embedded_path
+    from motionlab.sizes import RUN
 
     monkeypatch.setenv("MOTIONLAB_HOME", str(tmp_path / "home"))
     monkeypatch.setenv("MOTIONLAB_PROFILE", "smoke")
-    monkeypatch.setitem(EMBEDDED_SIZES, "smoke", 240)
+    monkeypatch.setitem(RUN["smoke"], "embedded_clips", 240)
     monkeypatch.chdir(tmp_path)
     try:  # the README's `take.bvh`: a CMU take from ../shared/data when it is there
         shutil.copy(request.getfixturevalue("shared_data") / "cmu-bvh" / "131_02.bvh", tmp_path / "take.bvh")

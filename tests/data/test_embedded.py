@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from motionlab.data.embedded import (
-    EMBEDDED_SIZES,
     FAMILIES,
     MAX_FRAMES,
     MIN_FRAMES,
@@ -20,6 +19,7 @@ from motionlab.data.embedded import (
 from motionlab.data.embedded import writer as writer_module
 from motionlab.data.embedded.captions import tag
 from motionlab.representation import T2M, feature_slices, joints_to_features, process_joints, recover_from_ric
+from motionlab.sizes import RUN, run_sizes
 
 N_SMALL = 3 * len(FAMILIES)  # the smallest dataset that still stratifies
 
@@ -250,7 +250,7 @@ def test_existing_dataset_is_kept_unless_overwrite(dataset, tmp_path, monkeypatc
 
 
 def test_ensure_embedded_generates_once_into_the_cache(isolated_cache, monkeypatch):
-    monkeypatch.setitem(EMBEDDED_SIZES, "smoke", N_SMALL)
+    monkeypatch.setitem(RUN["smoke"], "embedded_clips", N_SMALL)
     first = ensure_embedded("smoke", seed=1)
     assert first.is_relative_to(isolated_cache) and f"-n{N_SMALL}-s1" in first.name
     stamp = (first / "meta.json").stat().st_mtime_ns
@@ -263,7 +263,7 @@ def test_ensure_embedded_generates_once_into_the_cache(isolated_cache, monkeypat
 def test_a_damaged_cached_dataset_is_moved_aside_and_generated_again(isolated_cache, monkeypatch, capsys):
     from motionlab.data import load_dataset
 
-    monkeypatch.setitem(EMBEDDED_SIZES, "smoke", N_SMALL)
+    monkeypatch.setitem(RUN["smoke"], "embedded_clips", N_SMALL)
     first = ensure_embedded("smoke", seed=1, progress=False)
     clip = sorted((first / "new_joint_vecs").iterdir())[5]
     whole = clip.read_bytes()
@@ -285,8 +285,8 @@ def test_a_damaged_cached_dataset_is_moved_aside_and_generated_again(isolated_ca
 
 
 def test_profile_sizes_are_ordered():
-    assert EMBEDDED_SIZES["smoke"] >= 3 * len(FAMILIES)
-    assert EMBEDDED_SIZES["smoke"] < EMBEDDED_SIZES["laptop"] < EMBEDDED_SIZES["full"]
+    clips = [run_sizes(p).embedded_clips for p in ("smoke", "laptop", "full")]
+    assert clips[0] >= 3 * len(FAMILIES) and clips == sorted(set(clips))
 
 
 # --- fine structure ----------------------------------------------------------------------------------------

@@ -41,6 +41,46 @@ def test_the_auto_rule_reads_the_flags_and_the_onednn_cap(info, cap, fast):
     assert P.cpu_bf16_units(info, cap)[0] is fast
 
 
+@pytest.mark.parametrize(
+    ("info", "cap", "refused"),
+    [
+        (INTEL_AMX, None, False),
+        (INTEL_BF16, None, False),  # slower than fp32 (auto picks fp32), but it has the instructions: allowed
+        (AMD_BF16, None, False),
+        (AMD_BF16, "AVX512_CORE", True),  # told not to use them
+        (AVX2, None, True),  # the Zen 3 case: 275x slower than fp32
+    ],
+)
+def test_bf16_is_refused_where_the_cpu_has_no_bf16_instructions(info, cap, refused):
+    message = P.bf16_refusal(info, cap)
+    assert (message is not None) is refused
+    if refused:
+        assert info.model in message and "fp32" in message and "--force-precision" in message
+        assert "\n" not in message  # one line
+
+
+def test_the_refusal_stops_bf16_on_cpu_unless_forced_and_leaves_auto_alone(monkeypatch):
+    monkeypatch.setattr(P, "_cpu_bf16_refusal", lambda cap: P.bf16_refusal(AVX2, cap))
+    monkeypatch.delenv("MOTIONLAB_FORCE_PRECISION", raising=False)
+    with pytest.raises(ValueError, match="precision bf16 refused on AMD EPYC"):
+        P.explain_precision("bf16", "cpu")
+    assert P.explain_precision("fp32", "cpu") == ("fp32", "asked for")
+    assert P.explain_precision("auto", "cpu")[0] in ("fp32", "bf16")  # auto: the flags of this machine, as before
+    monkeypatch.setenv("MOTIONLAB_FORCE_PRECISION", "1")
+    assert P.explain_precision("bf16", "cpu") == ("bf16", "asked for")
+
+
+def test_the_cli_refuses_bf16_before_any_work_and_force_precision_insists(monkeypatch, tmp_path, capsys):
+    from motionlab.cli import main
+
+    monkeypatch.setattr(P, "_cpu_bf16_refusal", lambda cap: P.bf16_refusal(AVX2, cap))
+    monkeypatch.delenv("MOTIONLAB_FORCE_PRECISION", raising=False)
+    assert main(["--precision", "bf16", "data", "check", str(tmp_path)]) == 2
+    assert "precision bf16 refused" in capsys.readouterr().err
+    assert main(["--precision", "bf16", "--force-precision", "data", "check", str(tmp_path)]) == 1  # ran: problems
+    assert os.environ["MOTIONLAB_FORCE_PRECISION"] == "1"  # what workers and chapter kernels inherit
+
+
 def test_onednn_cap_is_read_from_either_variable():
     assert P.onednn_isa_cap({}) is None
     assert P.onednn_isa_cap({"ONEDNN_MAX_CPU_ISA": "avx512_core_bf16"}) == "AVX512_CORE_BF16"

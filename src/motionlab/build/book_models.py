@@ -16,10 +16,7 @@ everything cached after the plan ran.
 
 ``discord/rvq`` is chapter 05's decoder, the one DisCoRD's claims are judged on; it gets the profile's whole flow
 budget. Chapter 04's three projections compare with each other, not with the feed-forward decoder, so they share a
-smaller budget (:data:`ABLATION_STEPS`): at the full budget the three would add more than half to the book's
-training time.
-At a quarter of that ablation budget (tried while sizing the build) the decoders were far from converged and the
-ablation meaningless.
+smaller budget (``DISCORD_ABLATION`` in :mod:`motionlab.sizes`, where the reasons are).
 """
 
 from __future__ import annotations
@@ -28,6 +25,7 @@ from collections.abc import Sequence
 from functools import lru_cache, partial
 
 from ..profiles import get_profile
+from ..sizes import DISCORD_ABLATION
 from ..train.cache import NotCached, cache_probe
 from .plan import Job
 
@@ -140,16 +138,12 @@ def make_model(profile: str, seed: int, name: str, data: str | None = None, over
 
 
 # Training steps of chapter 04's projection ablation, where they differ from the profile's DisCoRD decoder.
-ABLATION_STEPS: dict[str, int] = {"laptop": 1150}
-
-
 def projection_config(profile: str, tokenizer, projection: str = "stacked", seed: int = 0, **overrides):
     """The DisCoRD config of chapter 04's ablation: chapter 05's decoder with the projection changed and, in the
-    laptop profile, the smaller ablation budget (:data:`ABLATION_STEPS`, warm-up 5% of it)."""
+    laptop profile, the smaller ablation budget (``DISCORD_ABLATION`` in :mod:`motionlab.sizes`)."""
     from ..flow import discord_config
 
-    steps = ABLATION_STEPS.get(get_profile(profile))
-    budget = {"train_steps": steps, "warmup_steps": max(1, steps // 20)} if steps else {}
+    budget = DISCORD_ABLATION.get(get_profile(profile), {})
     return discord_config(profile, tokenizer=tokenizer, projection=projection, seed=seed, **{**budget, **overrides})
 
 
@@ -277,7 +271,6 @@ def jobs_for(names: Sequence[str], profile: str | None = None, **kwargs) -> list
 
 
 __all__ = [
-    "ABLATION_STEPS",
     "BF16_SPEEDUP",
     "CHAPTER_MODELS",
     "ESTIMATES_S",

@@ -31,6 +31,7 @@ from motionlab.diffusion.schedule import DEFAULT_SCHEDULE, SCHEDULES, get_schedu
 from motionlab.diffusion.transformer import DenoisingTransformer, TransformerConfig, transformer_config
 from motionlab.diffusion.transitions import DISTANCES, Transitions, build_transitions
 from motionlab.profiles import get_profile
+from motionlab.sizes import DIFFUSION_TRAINING, WORD_ENCODER, resized
 from motionlab.text import Vocabulary, WordTextEncoder
 from motionlab.train import TrainConfig, Trainer
 
@@ -41,9 +42,9 @@ PAPER_ETA = 0.5  # M2D2M appendix A.1: η for single-motion generation (0.25 for
 class WordEncoderConfig:
     """Sizes of the trainable word encoder (:class:`~motionlab.text.WordTextEncoder`)."""
 
-    dim: int = 256
-    n_layers: int = 2
-    n_heads: int = 4
+    dim: int = 512  # CLIP ViT-B/32's text width, which M2D2M's denoiser reads
+    n_layers: int = 4
+    n_heads: int = 8
     max_len: int = 64  # words per caption (longer ones are cut)
     min_word_count: int = 1  # rarer caption words map to <unk>
 
@@ -59,10 +60,10 @@ class DiffusionTrainingConfig:
     transformer: TransformerConfig
     text: WordEncoderConfig = field(default_factory=WordEncoderConfig)
     max_tokens: int = 49  # longest training crop (196 frames, HumanML3D's longest clip)
-    warmup_steps: int = 0
-    grad_clip: float | None = None
+    warmup_steps: int = 1000
+    grad_clip: float | None = 1.0
     seed: int = 0
-    log_every: int = 50
+    log_every: int = 100
 
     def __post_init__(self) -> None:
         t = self.transformer
@@ -76,48 +77,6 @@ class DiffusionTrainingConfig:
             raise ValueError(f"transformer.distance must be one of {DISTANCES}, got {t.distance!r}")
         if not math.isfinite(t.eta):
             raise ValueError(f"transformer.eta must be finite, got {t.eta}")
-
-
-# Small profiles: seconds of training (smoke); about 6 minutes on one CPU core (laptop: 800 steps of ~0.42 s, five
-# such models in the book, see motionlab.build.book_models). The learning rates are larger than the paper's 2e-4: these
-# runs are hundreds of steps, not 110 epochs.
-_TRANSFORMER = {
-    "smoke": dict(
-        n_layers=2,
-        n_heads=2,
-        d_model=32,
-        d_ff=64,
-        rel_buckets=16,
-        rel_max_distance=32,
-        batch_size=16,
-        train_steps=150,
-        lr=2e-3,
-        lr_decayed=2e-4,
-    ),
-    "laptop": dict(
-        n_layers=3,
-        n_heads=4,
-        d_model=128,
-        d_ff=256,
-        rel_buckets=32,
-        rel_max_distance=64,
-        batch_size=32,
-        train_steps=800,
-        lr=1e-3,
-        lr_decayed=1e-4,
-    ),
-    "full": dict(),
-}
-_TEXT = {
-    "smoke": WordEncoderConfig(dim=32, n_layers=1, n_heads=2),
-    "laptop": WordEncoderConfig(dim=128, n_layers=1, n_heads=4),
-    "full": WordEncoderConfig(dim=512, n_layers=4, n_heads=8),
-}
-_TRAINING = {
-    "smoke": dict(warmup_steps=10, grad_clip=1.0, log_every=10),
-    "laptop": dict(warmup_steps=100, grad_clip=1.0, log_every=50),
-    "full": dict(warmup_steps=1000, grad_clip=1.0, log_every=100),
-}
 
 
 def diffusion_training_config(
@@ -149,9 +108,8 @@ def diffusion_training_config(
         raise ValueError(f"schedule must be one of {sorted(SCHEDULES)}, got {schedule!r}")
     if float(eta) == 0.0:
         distance = DISTANCES[0]
-    text = _TEXT[profile]
+    text = resized(WordEncoderConfig(), WORD_ENCODER, profile)
     settings = {
-        **_TRANSFORMER[profile],
         "num_codes": num_codes,
         "text_dim": text.dim,
         "eta": float(eta),
@@ -159,7 +117,8 @@ def diffusion_training_config(
         "schedule": schedule,
         **transformer_overrides,
     }
-    return DiffusionTrainingConfig(transformer_config(profile, **settings), text, **_TRAINING[profile])
+    config = DiffusionTrainingConfig(transformer_config(profile, **settings), text)
+    return resized(config, DIFFUSION_TRAINING, profile)
 
 
 def with_overrides(config: DiffusionTrainingConfig, **overrides) -> DiffusionTrainingConfig:

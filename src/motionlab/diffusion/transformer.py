@@ -27,14 +27,14 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
 from motionlab.precision import attention_kernel
-from motionlab.profiles import get_profile
+from motionlab.sizes import DENOISER, resized
 
 
 @dataclass(frozen=True)
@@ -76,18 +76,9 @@ class TransformerConfig:
             raise ValueError(f"cond_drop_prob must be in [0, 1), got {self.cond_drop_prob}")
 
 
-_PROFILES = {
-    "smoke": dict(
-        n_layers=2, n_heads=2, d_model=32, d_ff=64, rel_buckets=16, rel_max_distance=32, batch_size=16, train_steps=200
-    ),
-    "laptop": dict(n_layers=4, n_heads=8, d_model=256, d_ff=1024, batch_size=64, train_steps=4000),
-    "full": dict(),  # the paper: 12 layers, 16 heads, 512 dims, 2048 hidden
-}
-
-
 def transformer_config(profile: str | None = None, **overrides) -> TransformerConfig:
     """The denoiser config of a run profile (smoke: tiny; laptop: small; full: M2D2M's), with overrides."""
-    return TransformerConfig(**{**_PROFILES[get_profile(profile)], **overrides})
+    return replace(resized(TransformerConfig(), DENOISER, profile), **overrides)
 
 
 # ---------------------------------------------------------------------------------------------- pieces

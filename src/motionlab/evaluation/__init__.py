@@ -25,10 +25,14 @@ same table. :func:`write_json` stores a table atomically (a temporary file, then
 from __future__ import annotations
 
 from .common import (
+    CLI_OPTIONS,
     FLOW_OPTIONS,
     FLOW_SAMPLING_OPTIONS,
     FLOW_TRAINING_OPTIONS,
+    Option,
     available_memory,
+    command_line,
+    config_from_options,
     default_repeats,
     estimated_memory,
     log,
@@ -38,7 +42,6 @@ from .multi import MultiMotionConfig, evaluate_multi
 from .reconstruction import ReconstructionConfig, evaluate_reconstruction
 from .t2m import TextToMotionConfig, evaluate_t2m
 from .table import (
-    DEFAULT_REPEATS,
     METRIC_LABELS,
     MULTI_METRICS,
     RECONSTRUCTION_METRICS,
@@ -52,9 +55,11 @@ from .table import (
 )
 
 EVALUATORS = {"reconstruction": evaluate_reconstruction, "t2m": evaluate_t2m, "multi": evaluate_multi}
+CONFIGS = {"reconstruction": ReconstructionConfig, "t2m": TextToMotionConfig, "multi": MultiMotionConfig}
 
 __all__ = [
-    "DEFAULT_REPEATS",
+    "CLI_OPTIONS",
+    "CONFIGS",
     "EVALUATORS",
     "FLOW_OPTIONS",
     "FLOW_SAMPLING_OPTIONS",
@@ -69,7 +74,10 @@ __all__ = [
     "MultiMotionConfig",
     "ReconstructionConfig",
     "TextToMotionConfig",
+    "Option",
     "available_memory",
+    "command_line",
+    "config_from_options",
     "check_json_path",
     "metric_label",
     "default_repeats",

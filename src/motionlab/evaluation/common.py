@@ -16,8 +16,9 @@ from tqdm.auto import tqdm
 from motionlab.estimate import Estimate
 from motionlab.precision import network_precision
 from motionlab.profiles import get_profile
+from motionlab.sizes import run_sizes
 
-from .table import DEFAULT_REPEATS, SPLITS, EvaluationTable
+from .table import SPLITS, EvaluationTable
 
 # ----------------------------------------------------------------------------------------------- configs
 
@@ -62,6 +63,121 @@ FLOW_SAMPLING_OPTIONS = ("temperature", "spacing", "final_prediction")
 FLOW_OPTIONS = FLOW_TRAINING_OPTIONS + FLOW_SAMPLING_OPTIONS
 
 
+# ------------------------------------------------------------------------------------------ the command line
+# Each task's config fields as `motionlab evaluate TASK` spells them: the CLI builds the config from exactly these
+# options (their argparse destinations are the field names) and a config writes itself back as the command that
+# computes its table (:func:`command_line`). Kinds: "value" (one value), "switch" (a flag, given when true), "list"
+# (comma-separated words), "numbers" (comma-separated numbers), "grid" (comma-separated solver:intervals).
+
+
+@dataclass(frozen=True)
+class Option:
+    """One config field on the command line: its option and how its value is written."""
+
+    flag: str
+    kind: str = "value"
+
+    def parse(self, value: Any) -> Any:
+        """The option's parsed value (argparse's, a text for the comma-separated kinds) -> the config field's."""
+        if not isinstance(value, str) or self.kind not in ("list", "numbers"):
+            return value  # a grid's text is read by its config
+        parts = [part.strip() for part in value.split(",")]
+        if self.kind == "list":
+            return tuple(parts)
+        try:
+            return tuple(float(part) for part in parts)
+        except ValueError as err:
+            raise ValueError(f"{self.flag} must be comma-separated numbers, got {value!r}") from err
+
+    def words(self, value: Any) -> list[str]:
+        """The command-line words that give ``value``."""
+        if self.kind == "switch":
+            return [self.flag] if value else []
+        if self.kind == "grid":
+            return [self.flag, ",".join(f"{solver}:{steps}" for solver, steps in value)]
+        if self.kind in ("list", "numbers"):
+            return [self.flag, ",".join(_option_text(v) for v in value)]
+        return [self.flag, _option_text(value)]
+
+
+def _option_text(value: Any) -> str:
+    """A value as an option reads it: a float in its shortest form that reads back the same."""
+    if isinstance(value, float):
+        short = f"{value:g}"
+        return short if float(short) == value else repr(value)
+    return str(value)
+
+
+_SHARED_OPTIONS = {
+    "decoder": Option("--decoder"),
+    "steps": Option("--steps"),
+    "solver": Option("--solver"),
+    "split": Option("--split"),
+    "repeats": Option("--repeats"),
+    "seed": Option("--seed"),
+}
+_SAMPLING_OPTIONS = {"num_steps": Option("--num-steps"), "guidance_scale": Option("--guidance-scale")}
+CLI_OPTIONS: dict[str, dict[str, Option]] = {
+    "reconstruction": {
+        **_SHARED_OPTIONS,
+        "tokenizer": Option("--tokenizer"),
+        "limit": Option("--limit"),
+        "prediction": Option("--predict"),
+        "normalization": Option("--normalization"),
+        "time_distribution": Option("--time-distribution"),
+        "temperature": Option("--temperature"),
+        "spacing": Option("--spacing"),
+        "final_prediction": Option("--final-prediction", "switch"),
+        "grid": Option("--grid", "grid"),
+        "grid_repeats": Option("--grid-repeats"),
+        "timing_repeats": Option("--timing-repeats"),
+        "jerk": Option("--jerk", "switch"),
+        "token_phases": Option("--token-phases", "switch"),
+    },
+    "t2m": {
+        **_SHARED_OPTIONS,
+        **_SAMPLING_OPTIONS,
+        "models": Option("--models", "list"),
+        "limit": Option("--limit"),
+        "guidance_scales": Option("--guidance-scales", "numbers"),
+        "top_p": Option("--top-p"),
+        "multimodality": Option("--multimodality", "switch"),
+        "mm_texts": Option("--mm-texts"),
+        "mm_repeats": Option("--mm-repeats"),
+        "reconstruction": Option("--reconstruction", "switch"),
+        "token_stats": Option("--token-stats", "switch"),
+    },
+    "multi": {
+        **_SHARED_OPTIONS,
+        **_SAMPLING_OPTIONS,
+        "methods": Option("--methods", "list"),
+        "model": Option("--model"),
+        "instances": Option("--instances"),
+        "actions": Option("--actions"),
+        "T_s": Option("--T-s"),
+        "segment_jerk": Option("--segment-jerk", "switch"),
+    },
+}
+
+
+def config_from_options(task: str, config_class: type, options: Mapping[str, Any]) -> Any:
+    """``config_class`` from a task's parsed options (argparse's namespace as a mapping); None keeps a default."""
+    table = CLI_OPTIONS[task]
+    return config_class(**{name: table[name].parse(options[name]) for name in table if options.get(name) is not None})
+
+
+def command_line(config: Any, task: str, profile: str | None = None) -> str:
+    """The ``motionlab evaluate TASK`` command that computes ``config``'s table: ``--profile`` when one is given,
+    options at their defaults left out, ``--repeats`` always (the command's default depends on the profile)."""
+    default, words = type(config)(), ["motionlab", "evaluate", task]
+    words += [] if profile is None else ["--profile", get_profile(profile)]
+    for name, option in CLI_OPTIONS[task].items():
+        value = getattr(config, name)
+        if value is not None and (name == "repeats" or value != getattr(default, name)):
+            words += option.words(value)
+    return " ".join(words)
+
+
 # ------------------------------------------------------------------------------------------ size bounds
 
 _MOTION_BYTES = 196 * 263 * 4  # one generated motion at the longest evaluated length, float32 features
@@ -103,8 +219,8 @@ def _check_sampling(cfg: Any) -> None:
 
 
 def default_repeats(profile: str | None = None) -> int:
-    """Repeats per profile: 2 (smoke), 5 (laptop), the papers' 20 (full)."""
-    return DEFAULT_REPEATS[get_profile(profile)]
+    """Repeats per profile: 2 (smoke), 5 (laptop), the papers' 20 (full); see :class:`motionlab.sizes.RunSizes`."""
+    return run_sizes(profile).evaluation_repeats
 
 
 # ----------------------------------------------------------------------------------------------- helpers

@@ -4,7 +4,7 @@ baselines, for one text-to-motion model and one token decoder."""
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any
 
 from motionlab.profiles import get_profile
@@ -22,6 +22,7 @@ from .common import (
     _phase,
     _sampling,
     _table,
+    command_line,
 )
 from .table import MULTI_METRICS, EvaluationTable
 
@@ -115,25 +116,6 @@ def method_rows(methods: Sequence[str], T_s: int) -> dict[str, dict[str, Any]]:
     return rows
 
 
-# Config field -> ``motionlab evaluate multi`` option (the CLI builds the config from exactly these).
-_CLI_OPTIONS = {
-    "methods": "--methods",
-    "model": "--model",
-    "decoder": "--decoder",
-    "steps": "--steps",
-    "solver": "--solver",
-    "instances": "--instances",
-    "actions": "--actions",
-    "T_s": "--T-s",
-    "segment_jerk": "--segment-jerk",
-    "num_steps": "--num-steps",
-    "guidance_scale": "--guidance-scale",
-    "split": "--split",
-    "repeats": "--repeats",
-    "seed": "--seed",
-}
-
-
 @dataclass(frozen=True)
 class MultiMotionConfig:
     """M2D2M's multi-motion table: ``methods`` (specs of :data:`METHOD_OPTIONS`, e.g. ``"tps:T_s=50"``) of the
@@ -190,24 +172,9 @@ class MultiMotionConfig:
         if self.T_s is not None:
             _check_int("T_s", self.T_s, 0)
 
-    def cli_args(self) -> list[str]:
-        """The ``motionlab evaluate multi`` options that give this config (``--repeats`` always: the CLI's default
-        depends on the profile)."""
-        default, args = MultiMotionConfig(), []
-        for f in fields(self):
-            value = getattr(self, f.name)
-            if f.name != "repeats" and value == getattr(default, f.name):
-                continue
-            option = _CLI_OPTIONS[f.name]
-            if isinstance(value, bool):
-                args.append(option)
-            else:
-                args += [option, ",".join(value) if f.name == "methods" else str(value)]
-        return args
-
     def command_line(self, profile: str | None = None) -> str:
-        """The shell command that prints this table: ``motionlab evaluate multi --profile ... <options>``."""
-        return " ".join(["motionlab evaluate multi", "--profile", get_profile(profile), *self.cli_args()])
+        """The ``motionlab evaluate multi`` command that computes this table (see :func:`command_line`)."""
+        return command_line(self, "multi", profile)
 
 
 def paper_config(sizes, seed: int = 0, **changes: Any) -> MultiMotionConfig:

@@ -26,6 +26,7 @@ from .common import (
     _phase,
     _split_clips,
     _table,
+    command_line,
     repeat_seed,
 )
 from .table import RECONSTRUCTION_METRICS, EvaluationTable
@@ -143,39 +144,8 @@ class ReconstructionConfig:
         return f"DisCoRD, {steps} {solver} step{'s' * (steps != 1)} ({nfe} evaluation{'s' * (nfe != 1)})"
 
     def command_line(self, profile: str | None = None) -> str:
-        """The ``motionlab evaluate reconstruction`` command that computes this table (options at their defaults left
-        out; ``--repeats`` always given, since the command's default depends on the profile)."""
-        default = ReconstructionConfig()
-        flags = {
-            "prediction": "--predict",
-            "normalization": "--normalization",
-            "time_distribution": "--time-distribution",
-            "temperature": "--temperature",
-            "spacing": "--spacing",
-        }
-        options = {
-            "--profile": profile,
-            "--decoder": self.decoder if self.decoder != default.decoder else None,
-            "--tokenizer": self.tokenizer,
-            "--split": self.split if self.split != default.split else None,
-            "--limit": self.limit,
-            "--repeats": self.repeats,
-            "--seed": self.seed or None,
-            "--steps": self.steps,
-            "--solver": self.solver,
-            **{flag: _text(getattr(self, name)) for name, flag in flags.items()},
-            "--grid": ",".join(f"{solver}:{steps}" for solver, steps in self.grid) or None,
-            "--grid-repeats": self.grid_repeats,
-            "--timing-repeats": self.timing_repeats or None,
-        }
-        words = ["motionlab", "evaluate", "reconstruction"]
-        words += [f"{flag} {value}" for flag, value in options.items() if value is not None]
-        switches = {
-            "--final-prediction": self.final_prediction,
-            "--jerk": self.jerk,
-            "--token-phases": self.token_phases,
-        }
-        return " ".join(words + [flag for flag, on in switches.items() if on])
+        """The ``motionlab evaluate reconstruction`` command that computes this table (see :func:`command_line`)."""
+        return command_line(self, "reconstruction", profile)
 
     @property
     def tokenizer_kind(self) -> str:
@@ -207,15 +177,6 @@ def _parse_grid(grid: Any) -> tuple[tuple[str, int], ...]:
     if len(set(out)) != len(out):
         raise ValueError(f"grid entries must be distinct, got {out}")
     return tuple(out)
-
-
-def _text(value: Any) -> str | None:
-    """A command-line value: None stays None; a float in its shortest form that reads back the same."""
-    if value is None or isinstance(value, bool):
-        return None
-    if isinstance(value, float):
-        return f"{value:g}" if float(f"{value:g}") == value else repr(value)
-    return str(value)
 
 
 # ----------------------------------------------------------------------------------------------- the tasks

@@ -30,6 +30,7 @@ from .common import (
     _phase,
     _split_clips,
     _table,
+    command_line,
     repeat_seed,
 )
 from .table import R_PRECISION_BATCH, T2M_METRICS, EvaluationTable
@@ -191,42 +192,12 @@ class TextToMotionConfig:
         return ", ".join(parts) + (f" + {decoder_name}" if self.decoder == "discord" else "")
 
     def command_line(self, profile: str | None = None) -> str:
-        """The ``motionlab evaluate t2m`` command that computes this table (options at their defaults left out;
-        ``--repeats`` always given, since the command's default depends on the profile)."""
-        default = TextToMotionConfig()
-        options = {
-            "--profile": profile,
-            "--split": self.split if self.split != default.split else None,
-            "--limit": self.limit,
-            "--repeats": self.repeats,
-            "--seed": self.seed or None,
-            "--models": ",".join(self.models) if self.models != default.models else None,
-            "--decoder": self.decoder if self.decoder != default.decoder else None,
-            "--steps": self.steps,
-            "--solver": self.solver,
-            "--num-steps": self.num_steps,
-            "--guidance-scale": _number(self.guidance_scale),
-            "--guidance-scales": ",".join(_number(s) for s in self.guidance_scales) or None,
-            "--top-p": _number(self.top_p),
-            "--mm-texts": self.mm_texts if self.mm_texts != default.mm_texts else None,
-            "--mm-repeats": self.mm_repeats if self.mm_repeats != default.mm_repeats else None,
-        }
-        words = ["motionlab", "evaluate", "t2m"] + [f"{flag} {v}" for flag, v in options.items() if v is not None]
-        flags = {"--multimodality": self.multimodality, "--reconstruction": self.reconstruction}
-        words += [flag for flag, on in {**flags, "--token-stats": self.token_stats}.items() if on]
-        return " ".join(words)
+        """The ``motionlab evaluate t2m`` command that computes this table (see :func:`command_line`)."""
+        return command_line(self, "t2m", profile)
 
     def real_tokens_row(self) -> str:
         """The row name of the real tokens' statistics (with ``token_stats``)."""
         return f"Real tokens ({_other_split(self.split)} vs {self.split})"
-
-
-def _number(x: float | None) -> str | None:
-    """``4.0`` -> ``"4"``: the shortest text that reads back as the same float."""
-    if x is None:
-        return None
-    short = f"{x:g}"
-    return short if float(short) == x else repr(float(x))
 
 
 def _other_split(split: str) -> str:

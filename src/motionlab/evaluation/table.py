@@ -15,7 +15,6 @@ from motionlab.estimate import Estimate
 
 TASKS = ("reconstruction", "t2m", "multi")
 SPLITS = ("train", "val", "test")
-DEFAULT_REPEATS = {"smoke": 2, "laptop": 5, "full": 20}  # the papers use 20
 R_PRECISION_BATCH = 32  # the T2M protocol ranks each text among 32 motions
 
 RECONSTRUCTION_METRICS = ("fid", "mpjpe_mm", "sjpe", "noise_sjpe", "static_sjpe", "sjpe_ratio")

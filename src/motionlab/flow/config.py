@@ -1,7 +1,7 @@
 """DisCoRD decoder configurations, one per run profile (smoke / laptop / full).
 
-``full`` is the paper's Table A (HumanML3D, MoMask RVQ tokens) plus what the public training script does
-where the table is silent:
+The defaults of :class:`DisCoRDConfig` (the ``full`` profile) are the paper's Table A (HumanML3D, MoMask RVQ tokens)
+plus what the public training script does where the table is silent:
 
 =====================  ===========================================================================
 U-Net                   width 512, mults (1, 2) → dims [512, 512, 1024], 1 ResNet per level (2 conv
@@ -23,7 +23,8 @@ The options the paper does not use (``prediction="x"``, a logit-normal time dist
 ``temperature`` below 1, a ``data_dense`` grid, ``final_prediction``) are the levers chapter 05 measures at
 laptop scale; see :mod:`motionlab.flow.rectified_flow`.
 
-``feature_dim`` and ``code_dim`` must match the tokenizer; pass it (or overrides) to :func:`discord_config`.
+``feature_dim`` and ``code_dim`` must match the tokenizer; pass it (or overrides) to :func:`discord_config`. What
+the smoke and laptop profiles change, and why, is ``DISCORD_DECODER`` in :mod:`motionlab.sizes`.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ from typing import Any
 from motionlab.flow.condition import CONDITION_PROJECTIONS
 from motionlab.flow.rectified_flow import GRIDS, PREDICTIONS, SOLVERS, TIME_DISTRIBUTIONS, ODESolver
 from motionlab.flow.unet1d import UNetConfig
-from motionlab.profiles import get_profile
+from motionlab.sizes import DISCORD_DECODER, resized
 from motionlab.train import TrainConfig
 
 NORMALIZATIONS = ("std", "feat_bias")
@@ -149,61 +150,12 @@ class DisCoRDConfig:
         return TrainConfig(**{**settings, **overrides})
 
 
-_PROFILES: dict[str, DisCoRDConfig] = {
-    # Tiny: seconds of CPU training; numbers only show that the code runs. Code width = the smoke tokenizer's.
-    "smoke": DisCoRDConfig(
-        code_dim=16,
-        cond_dim=16,
-        width=16,
-        sample_steps=4,
-        solver="euler",
-        window=16,
-        batch_size=16,
-        lr=1e-3,
-        min_lr=1e-4,
-        train_steps=60,
-        warmup_steps=5,
-        ema_decay=0.9,
-    ),
-    # Chosen by measurement (chapter 05, experiments/discord_sweep.py): under 10 minutes of fp32 training on one core
-    # of a 2-core machine (data v2), the paper's velocity U-Net at width 272 got ~420 steps and stayed rough; an
-    # x-predicting U-Net of width 128 (no noise floor below the 263 features) got ~1,300 steps and the lowest
-    # validation sJPE, decoded from zero start noise (temperature 0: the paper samples at 1; chapter 05 reports the
-    # cost). Its budget, re-measured on data v3 in bf16 (AMD EPYC, AVX512-BF16, 0.16 s per step): sJPE falls below
-    # the feed-forward decoder's between 2,200 and 4,500 steps (chapter 05's budget curve), so chapter 05's decoder
-    # trains 4,000 steps, about 11 CPU-minutes, at lr 3e-3: at an equal budget it left less frame-wise jitter
-    # (validation Noise sJPE 0.85 vs 0.90 at 1e-3) for the same sJPE. Chapter 04's projection ablation keeps 1,150
-    # steps (build.book_models.ABLATION_STEPS).
-    # Code width = the laptop tokenizer's.
-    "laptop": DisCoRDConfig(
-        code_dim=64,
-        cond_dim=64,
-        width=128,
-        width_mults=(1, 1),
-        sample_steps=8,
-        solver="midpoint",
-        prediction="x",
-        normalization="std",
-        temperature=0.0,
-        window=64,
-        batch_size=32,
-        lr=3e-3,
-        min_lr=1e-5,
-        train_steps=4000,
-        warmup_steps=200,
-        ema_decay=0.995,
-    ),
-    # The paper (Table A) and the public code.
-    "full": DisCoRDConfig(),
-}
-
-
 def discord_config(profile: str | None = None, tokenizer: Any = None, **overrides: Any) -> DisCoRDConfig:
     """The config for ``profile`` (see :mod:`motionlab.profiles`), matched to ``tokenizer`` if given.
 
     A tokenizer sets ``feature_dim``, ``code_dim`` and ``q`` (its ``downsample``); ``overrides`` win last.
     """
-    config = _PROFILES[get_profile(profile)]
+    config = resized(DisCoRDConfig(), DISCORD_DECODER, profile)
     if tokenizer is not None:
         config = replace(
             config,

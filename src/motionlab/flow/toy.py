@@ -35,7 +35,7 @@ from motionlab.flow.rectified_flow import (
     sample,
     time_grid,
 )
-from motionlab.profiles import get_profile
+from motionlab.sizes import TOY_FLOW, resized
 from motionlab.train import TrainConfig, Trainer, seeded, train_or_load
 
 # ----------------------------------------------------------------------------- toy distributions
@@ -79,7 +79,7 @@ class ToyFlowConfig:
     hidden: int = 128
     depth: int = 3  # hidden layers
     time_freqs: int = 8  # sin/cos features of t at frequencies 1, 2, 4, ... (times π)
-    steps: int = 3000
+    steps: int = 20_000  # the full profile's; smaller ones in motionlab.sizes.TOY_FLOW
     batch_size: int = 512
     lr: float = 2e-3
     warmup_steps: int = 100
@@ -109,12 +109,9 @@ class ToyFlowConfig:
         )
 
 
-_PROFILE_STEPS = {"smoke": 300, "laptop": 5000, "full": 20_000}
-
-
 def toy_flow_config(profile: str | None = None, **overrides: Any) -> ToyFlowConfig:
     """The toy config of a profile: only the number of training steps changes (300 / 5000 / 20000)."""
-    config = ToyFlowConfig(steps=_PROFILE_STEPS[get_profile(profile)])
+    config = resized(ToyFlowConfig(), TOY_FLOW, profile)
     unknown = set(overrides) - set(ToyFlowConfig.__dataclass_fields__)
     if unknown:
         raise ValueError(f"unknown ToyFlowConfig fields: {sorted(unknown)}")

@@ -37,6 +37,7 @@ from torch import nn
 
 from ..profiles import get_profile
 from ..representation import Normalizer
+from ..sizes import EVALUATOR, resized
 from ..train import TrainConfig, Trainer, train_or_load
 from .distribution import diversity, fid
 from .evaluator import EvaluatorConfig, TextMotionEvaluator, contrastive_loss
@@ -50,15 +51,15 @@ MODEL_NAME = "text_motion_evaluator"
 class EvaluatorTrainingConfig:
     """Network sizes plus how to train them (the reference: Adam lr 1e-4, grad-clip 0.5, margin 10)."""
 
-    evaluator: EvaluatorConfig = field(default_factory=EvaluatorConfig)
-    steps: int = 2000
+    evaluator: EvaluatorConfig = field(default_factory=lambda: EvaluatorConfig.official("t2m"))
+    steps: int = 40_000
     batch_size: int = 32
     lr: float = 1e-4
     grad_clip: float = 0.5
     margin: float = 10.0
     max_frames: int = 196  # longest crop fed to the motion encoder (HumanML3D's maximum length)
     min_word_count: int = 1  # rarer caption words map to "unk"
-    val_every: int = 0  # steps between validation R-precision rows in the history (0: only at the end)
+    val_every: int = 2000  # steps between validation R-precision rows in the history (0: only at the end)
     seed: int = 0
 
     def __post_init__(self):
@@ -69,31 +70,9 @@ class EvaluatorTrainingConfig:
 
 
 def evaluator_config(profile: str | None = None) -> EvaluatorTrainingConfig:
-    """Sizes per profile: ``smoke`` tiny (seconds), ``laptop`` small (minutes on 2 cores), ``full`` official."""
-    profile = get_profile(profile)
-    if profile == "smoke":
-        nets = EvaluatorConfig(
-            dim_word=32,
-            dim_text_hidden=32,
-            dim_motion_hidden=48,
-            dim_coemb=32,
-            dim_movement_hidden=48,
-            dim_movement_latent=48,
-        )
-        return EvaluatorTrainingConfig(nets, steps=120, batch_size=32, lr=2e-3, grad_clip=1.0, val_every=40)
-    if profile == "laptop":
-        nets = EvaluatorConfig(
-            dim_word=64,
-            dim_text_hidden=128,
-            dim_motion_hidden=128,
-            dim_coemb=512,
-            dim_movement_hidden=128,
-            dim_movement_latent=128,
-        )
-        return EvaluatorTrainingConfig(nets, steps=800, batch_size=32, lr=1e-3, grad_clip=1.0, val_every=200)
-    return EvaluatorTrainingConfig(
-        EvaluatorConfig.official("t2m"), steps=40000, batch_size=32, lr=1e-4, grad_clip=0.5, val_every=2000
-    )
+    """Sizes per profile: ``smoke`` tiny (seconds), ``laptop`` small (minutes on 2 cores), ``full`` official
+    (the changes are ``EVALUATOR`` in :mod:`motionlab.sizes`)."""
+    return resized(EvaluatorTrainingConfig(), EVALUATOR, profile)
 
 
 class EvaluatorNetworks(nn.Module):

@@ -1,15 +1,16 @@
 """Tokenizer configurations per run profile.
 
-``full`` is the published setting (T2M-GPT for :class:`VQConfig`, MoMask for :class:`RVQConfig`);
-``laptop`` keeps the architecture but shrinks widths and codebooks so a few minutes on 2 CPU cores
-give a usable tokenizer; ``smoke`` only proves the code runs.
+The defaults are the published setting (T2M-GPT for :class:`VQConfig`, MoMask for :class:`RVQConfig`, the ``full``
+profile); ``laptop`` keeps the architecture but shrinks widths and codebooks so a few minutes on 2 CPU cores give a
+usable tokenizer; ``smoke`` only proves the code runs. Their changes live in :mod:`motionlab.sizes`
+(``TOKENIZER``, ``RVQ_TOKENIZER``).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields, replace
 
-from ..profiles import get_profile
+from ..sizes import RVQ_TOKENIZER, TOKENIZER, resized
 from ..train import TrainConfig
 
 
@@ -80,45 +81,6 @@ class RVQConfig(VQConfig):
     )
 
 
-def _small(cls, profile: str, **extra):
-    if profile == "smoke":
-        train = TrainConfig(steps=40, lr=2e-3, schedule="cosine", warmup_steps=5, log_every=10)
-        return cls(
-            width=32,
-            depth=1,
-            code_dim=16,
-            codebook_size=32,
-            window=16,
-            batch_size=8,
-            dropout=0.0,
-            gumbel_temperature=0.0,
-            train=train,
-            **extra,
-        )
-    train = TrainConfig(
-        steps=2000,
-        lr=1e-3,
-        schedule="cosine",
-        warmup_steps=100,
-        min_lr_ratio=0.05,
-        grad_clip=1.0,
-        log_every=50,
-        ckpt_every=500,
-    )
-    return cls(
-        width=128,
-        depth=2,
-        code_dim=64,
-        codebook_size=256,
-        window=64,
-        batch_size=32,
-        dropout=0.0,
-        gumbel_temperature=0.0,
-        train=train,
-        **extra,
-    )
-
-
 def _with(config, overrides: dict):
     unknown = sorted(set(overrides) - {f.name for f in fields(config)})
     if unknown:
@@ -128,16 +90,9 @@ def _with(config, overrides: dict):
 
 def vq_config(profile: str | None = None, **overrides) -> VQConfig:
     """The :class:`VQConfig` of a profile (``smoke`` | ``laptop`` | ``full``), with field overrides."""
-    profile = get_profile(profile)
-    config = VQConfig() if profile == "full" else _small(VQConfig, profile)
-    return _with(config, overrides)
+    return _with(resized(VQConfig(), TOKENIZER, profile), overrides)
 
 
 def rvq_config(profile: str | None = None, **overrides) -> RVQConfig:
     """The :class:`RVQConfig` of a profile (``smoke`` | ``laptop`` | ``full``), with field overrides."""
-    profile = get_profile(profile)
-    if profile == "full":
-        config = RVQConfig()
-    else:
-        config = _small(RVQConfig, profile, num_layers=3 if profile == "smoke" else 6)
-    return _with(config, overrides)
+    return _with(resized(RVQConfig(), RVQ_TOKENIZER, profile), overrides)

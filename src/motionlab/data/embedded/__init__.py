@@ -5,10 +5,9 @@
 """
 
 from .generator import FAMILIES, MAX_FRAMES, MIN_FRAMES, VERSION, EmbeddedClip, generate_clip
-from .writer import EMBEDDED_SIZES, embedded_path, ensure_embedded, write_embedded_dataset
+from .writer import embedded_path, ensure_embedded, write_embedded_dataset
 
 __all__ = [
-    "EMBEDDED_SIZES",
     "FAMILIES",
     "MAX_FRAMES",
     "MIN_FRAMES",

@@ -32,8 +32,8 @@ import torch
 from tqdm.auto import tqdm
 
 from motionlab.paths import cache_path
-from motionlab.profiles import get_profile
 from motionlab.representation import Normalizer, joints_to_features, recover_from_ric
+from motionlab.sizes import run_sizes
 from motionlab.train.cache import check_may_train
 from motionlab.train.progress import bars_enabled
 
@@ -41,7 +41,6 @@ from ..writing import SPLIT_FRACTIONS, make_layout, stratified_split, write_clip
 from .captions import caption_line
 from .generator import FAMILIES, VERSION, generate_clip
 
-EMBEDDED_SIZES = {"smoke": 420, "laptop": 3000, "full": 6000}
 CHAIN_FRACTION = 0.15  # share of clips that chain two actions ("walks forward and then waves")
 
 
@@ -198,7 +197,7 @@ def write_embedded_dataset(
 
 def embedded_path(profile: str | None = None, seed: int = 0) -> Path:
     """Where :func:`ensure_embedded` keeps the dataset of a profile and seed (it may not exist yet)."""
-    n = EMBEDDED_SIZES[get_profile(profile)]
+    n = run_sizes(profile).embedded_clips
     return cache_path("data", f"embedded-v{VERSION}-n{n}-s{seed}")
 
 
@@ -256,7 +255,7 @@ def ensure_embedded(profile: str | None = None, seed: int = 0, progress: bool = 
             file=sys.stderr,
         )
     check_may_train(f"the embedded dataset {path.name}")
-    n = EMBEDDED_SIZES[get_profile(profile)]
+    n = run_sizes(profile).embedded_clips
     try:
         return write_embedded_dataset(path, n, seed=seed, progress=progress, overwrite=path.exists())
     except OSError:
