@@ -1,10 +1,13 @@
-"""Shared test fixtures: the real-data folder beside the project, and an isolated cache root."""
+"""Shared test fixtures: the real-data folder beside the project, an isolated cache root, the official evaluator's
+downloaded layout."""
 
 from __future__ import annotations
 
 import os
+import pickle
 from pathlib import Path
 
+import numpy as np
 import pytest
 import torch
 
@@ -57,3 +60,33 @@ def fp32_run_settings():
             os.environ.pop(name, None)
         else:
             os.environ[name] = value
+
+
+GLOVE_WORDS = ["sos", "eos", "unk", "a", "person", "walk", "left"]
+
+
+def _write_official_evaluator(root: Path, model, dataset: str = "t2m") -> None:
+    """The official T2M evaluator's downloaded layout under ``root`` (``checkpoints/<dataset>/text_mot_match/model/
+    finest.tar`` with ``model``'s weights under the official keys, ``Comp_v6_KLD005/meta``, ``glove/`` of 7 words)."""
+    ckpt_dir = root / "checkpoints" / dataset / "text_mot_match" / "model"
+    meta = root / "checkpoints" / dataset / "Comp_v6_KLD005" / "meta"
+    glove = root / "glove"
+    for d in (ckpt_dir, meta, glove):
+        d.mkdir(parents=True)
+    torch.save({**model.official_state(), "epoch": 7}, ckpt_dir / "finest.tar")
+    rng = np.random.default_rng(0)
+    dim = model.config.dim_pose
+    np.save(meta / "mean.npy", rng.normal(size=dim).astype(np.float32))
+    np.save(meta / "std.npy", rng.uniform(0.5, 2, size=dim).astype(np.float32))
+    np.save(glove / "our_vab_data.npy", rng.normal(size=(len(GLOVE_WORDS), 300)).astype(np.float32))
+    with open(glove / "our_vab_words.pkl", "wb") as f:
+        pickle.dump(GLOVE_WORDS, f)
+    with open(glove / "our_vab_idx.pkl", "wb") as f:
+        pickle.dump({w: i for i, w in enumerate(GLOVE_WORDS)}, f)
+
+
+@pytest.fixture
+def official_evaluator_layout():
+    """``write(root, model, dataset="t2m")``: the official evaluator's files under ``root``, as its download script
+    leaves them, holding ``model``'s (a :class:`~motionlab.metrics.TextMotionEvaluator`) weights."""
+    return _write_official_evaluator

@@ -430,8 +430,7 @@ def _evaluate(args: argparse.Namespace) -> int:
 def _evaluation_models(task: str, config) -> list[str]:
     """The models an evaluation loads (or trains on first use), as names of the book's plan."""
     if task == "reconstruction":
-        kind = config.tokenizer_kind
-        return [f"tokenizer/{kind}", "evaluator"] + ([f"discord/{kind}"] if config.decoder == "discord" else [])
+        return config.book_models()
     models = list(config.models) if task == "t2m" else [getattr(config, "model", "t2m/dynamic")]
     return [*models, "evaluator"] + (["discord/vq"] if config.decoder == "discord" else [])
 
@@ -550,15 +549,30 @@ def _add_evaluate(sub) -> None:
     )
     rec.add_argument(
         "--decoder",
-        choices=["vq", "rvq", "discord"],
         default="discord",
-        help="a tokenizer's feed-forward decoder, or discord: feed-forward and DisCoRD rows",
+        help="vq | rvq (that book tokenizer's feed-forward decoder), discord (feed-forward and DisCoRD rows, the "
+        "book's), feed-forward (--tokenizer's own decoder), or discord:FOLDER[,TOKENIZER] (a released DisCoRD "
+        "decoder; default: discord)",
     )
     rec.add_argument(
         "--tokenizer",
-        choices=["vq", "rvq"],
         default=None,
-        help="with --decoder discord: whose tokens DisCoRD decodes (default: rvq)",
+        help="whose tokens: the book's vq | rvq (default: rvq), or a released checkpoint, momask:FOLDER[,CHECKPOINT] "
+        "| t2mgpt:PATH[,META] (default with a released decoder: the one its config_model.yaml names)",
+    )
+    rec.add_argument(
+        "--evaluator",
+        default=None,
+        help="official:FOLDER: the released T2M evaluator (checkpoints/{t2m,kit}/text_mot_match, Comp_v6_KLD005) "
+        "instead of the book's, which trains on --data on first use",
+    )
+    rec.add_argument("--glove", default=None, help="with --evaluator official: the GloVe folder (default: FOLDER)")
+    rec.add_argument(
+        "--window",
+        type=int,
+        default=None,
+        help="zero-pad every clip to this many frames before tokenising it, as the released evaluation does "
+        "(default: 196 with released checkpoints, none with the book's)",
     )
     rec.add_argument("--limit", type=int, default=None, help="score only the first K clips of the split")
     _add_flow_training_options(rec)
@@ -897,6 +911,9 @@ def build_parser() -> argparse.ArgumentParser:
     convert.set_defaults(func=_convert)
 
     _add_evaluate(sub)
+    from .pretrained import add_subcommands
+
+    add_subcommands(sub)  # `pretrained check FOLDER`, `pretrained convert FOLDER --out DIR`
     return parser
 
 

@@ -39,7 +39,7 @@ def test_help_for_evaluate_and_every_task(capsys):
         assert exit_info.value.code == 0
         out = capsys.readouterr().out
         assert out.startswith(f"usage: motionlab {' '.join(argv)}")
-    assert "--decoder {vq,rvq,discord}" in main_help(["evaluate", "reconstruction"], capsys)
+    assert "discord:FOLDER[,TOKENIZER]" in main_help(["evaluate", "reconstruction"], capsys)
     assert "--multimodality" in main_help(["evaluate", "t2m"], capsys)
     assert "--methods" in main_help(["evaluate", "multi"], capsys)
     assert "reconstruction" in main_help(["evaluate"], capsys)
@@ -229,7 +229,14 @@ def test_multi_tps_and_independent(data, tmp_path, capsys):
     [
         ("reconstruction", ["--repeats", "0"], "repeats must be an int >= 1"),
         ("reconstruction", ["--limit", "1"], "limit must be an int >= 2"),
-        ("reconstruction", ["--decoder", "vq", "--tokenizer", "rvq"], "tokenizer= chooses the tokens"),
+        ("reconstruction", ["--decoder", "vq", "--tokenizer", "rvq"], "is that tokenizer's own decoder"),
+        ("reconstruction", ["--tokenizer", "momask:/nowhere"], "the book's decoder, trained on the book's tokens"),
+        ("reconstruction", ["--decoder", "discord:/nowhere", "--tokenizer", "rvq"], "codes of the tokenizer"),
+        ("reconstruction", ["--decoder", "discord:/nowhere", "--predict", "x"], "a released decoder is what"),
+        ("reconstruction", ["--tokenizer", "vqgan:/x", "--decoder", "feed-forward"], "a released tokenizer is one of"),
+        ("reconstruction", ["--evaluator", "mine"], "'official:FOLDER'"),
+        ("reconstruction", ["--glove", "/g"], "it needs evaluator='official:FOLDER'"),
+        ("reconstruction", ["--window", "198"], "multiple of 4"),
         ("reconstruction", ["--decoder", "rvq", "--steps", "4"], "need decoder='discord'"),
         ("reconstruction", ["--solver", "rk4"], "solver must be one of"),
         ("t2m", ["--limit", "8"], "batches of 32"),

@@ -12,7 +12,19 @@ from motionlab import cli
 from motionlab.evaluation import CLI_OPTIONS, CONFIGS, Option, config_from_options
 
 # options of `evaluate` that are not a config's: where the data and models come from, and where the table goes
-NOT_CONFIG = {"profile", "precision", "threads", "data", "device", "json", "force", "task", "command", "func"}
+NOT_CONFIG = {
+    "profile",
+    "precision",
+    "force_precision",
+    "threads",
+    "data",
+    "device",
+    "json",
+    "force",
+    "task",
+    "command",
+    "func",
+}
 
 
 def _parsed(argv: list[str]):

@@ -35,6 +35,12 @@ EXCLUDED = {
     "tests/train/test_plan.py; CI's `make book PROFILE=smoke` runs it)",
     "motionlab book execute": "executes every chapter (CI's `make book PROFILE=smoke` runs it; "
     "tests/book/test_notebook_runner.py tests the executor)",
+    "motionlab pretrained": "needs the files the papers released, which cannot be downloaded here "
+    "(tests/pretrained/ checks and converts folders in their layouts)",
+    "motionlab --precision fp32 evaluate reconstruction --data /data/HumanML3D": "needs HumanML3D and the released "
+    "checkpoints (tests/pretrained/test_pretrained_evaluate.py runs the command on folders in their layouts)",
+    "motionlab evaluate reconstruction --data /data/HumanML3D": "needs HumanML3D and the released T2M-GPT VQ-VAE "
+    "(tests/pretrained/test_pretrained_evaluate.py runs it on a folder in its layout)",
 }
 
 

@@ -63,6 +63,43 @@ def test_feed_forward_batches_equal_one_clip_at_a_time(raw_clips, tokenizer):
         np.testing.assert_allclose(recon, alone, atol=1e-5)
 
 
+def test_pad_to_tokenises_each_clip_in_a_zero_padded_window_as_the_official_evaluation(raw_clips, tokenizer):
+    clips = normalised(raw_clips)
+    padded = decode_clips(clips, tokenizer, pad_to=64)
+    for clip, recon in zip(clips, padded):
+        n = len(clip) // 4 * 4
+        window = np.zeros((64, 263), np.float32)
+        window[:n] = clip[:n]  # the clip, then zeros (the normalised mean pose) to 64 frames
+        alone = tokenizer.decode(tokenizer.encode(torch.as_tensor(window)[None]))[0].detach().numpy()
+        assert recon.shape == (n, 263)
+        np.testing.assert_allclose(recon, alone[:n], atol=1e-5)
+    with pytest.raises(ValueError, match="at least the longest clip, 60"):
+        decode_clips(clips, tokenizer, pad_to=56)
+    with pytest.raises(ValueError, match="multiple of 4"):
+        decode_clips(clips, tokenizer, pad_to=66)
+
+
+def test_decode_cost_counts_one_call_times_the_calls_and_times_it_here(tokenizer):
+    from motionlab.flow.reconstruction import count_flops, decode_cost
+
+    decoder = DisCoRDDecoder.from_tokenizer(tokenizer, "smoke").eval()
+    ids = tokenizer.encode(torch.zeros(1, 32, 263))
+    cost = decode_cost(tokenizer, decoder, frames=32, steps=15, solver="midpoint")
+    assert cost.feed_forward_gflop == pytest.approx(count_flops(lambda: tokenizer.decode(ids)) / 1e9)
+    one = count_flops(lambda: decoder.decode(ids, steps=1, solver="euler", seed=0)) / 1e9
+    assert cost.discord_calls == 30 and cost.discord_gflop == pytest.approx(30 * one)
+    assert cost.discord_gflop == pytest.approx(
+        count_flops(lambda: decoder.decode(ids, steps=15, solver="midpoint", seed=0)) / 1e9, rel=0.05
+    )
+    assert cost.gflop_per_cpu_second > 0
+    assert cost.total_gflop(10, 2) == pytest.approx(10 * (cost.feed_forward_gflop + 2 * cost.discord_gflop))
+    table = cost.table(clips=10, discord_decodes=2)
+    assert table.labels == ["feed-forward decoder (one run)", "DisCoRD, 30 network calls (2 runs)"]
+    assert decode_cost(tokenizer, frames=32).discord_gflop is None
+    with pytest.raises(ValueError, match="multiple of 4"):
+        decode_cost(tokenizer, frames=30)
+
+
 def test_discord_decodes_are_fixed_by_the_seed(raw_clips, tokenizer):
     decoder = DisCoRDDecoder(discord_config("smoke", tokenizer=tokenizer)).attach(tokenizer)
     clips = normalised(raw_clips)

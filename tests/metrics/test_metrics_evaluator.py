@@ -1,7 +1,5 @@
 """The text-motion evaluator: checkpoint compatibility, caller order, words, loss and the official loader."""
 
-import pickle
-
 import numpy as np
 import pytest
 import torch
@@ -204,30 +202,22 @@ def test_caption_vocabulary_and_learned_embedding():
 
 # --- official loader --------------------------------------------------------------------------------------
 
-GLOVE_WORDS = ["sos", "eos", "unk", "a", "person", "walk", "left"]
+GLOVE_WORDS = ["sos", "eos", "unk", "a", "person", "walk", "left"]  # what tests/conftest.py writes
 
 
-def write_official_layout(root, dataset="t2m", model=None):
-    """The downloaded layout, with tiny random weights of the official key set and GloVe of 7 words."""
-    model = model or tiny_model(1)
-    ckpt_dir = root / "checkpoints" / dataset / "text_mot_match" / "model"
-    meta = root / "checkpoints" / dataset / "Comp_v6_KLD005" / "meta"
-    glove = root / "glove"
-    for d in (ckpt_dir, meta, glove):
-        d.mkdir(parents=True)
-    torch.save({**model.official_state(), "epoch": 7}, ckpt_dir / "finest.tar")
-    rng = np.random.default_rng(0)
-    np.save(meta / "mean.npy", rng.normal(size=263).astype(np.float32))
-    np.save(meta / "std.npy", rng.uniform(0.5, 2, size=263).astype(np.float32))
-    np.save(glove / "our_vab_data.npy", rng.normal(size=(len(GLOVE_WORDS), 300)).astype(np.float32))
-    with open(glove / "our_vab_words.pkl", "wb") as f:
-        pickle.dump(GLOVE_WORDS, f)
-    with open(glove / "our_vab_idx.pkl", "wb") as f:
-        pickle.dump({w: i for i, w in enumerate(GLOVE_WORDS)}, f)
-    return model
+@pytest.fixture
+def write_official_layout(official_evaluator_layout):
+    """``write(root, dataset="t2m", model=None)``: the downloaded layout with ``tiny_model(1)`` unless told."""
+
+    def write(root, dataset="t2m", model=None):
+        model = model or tiny_model(1)
+        official_evaluator_layout(root, model, dataset)
+        return model
+
+    return write
 
 
-def test_load_official_evaluator_round_trip(tmp_path):
+def test_load_official_evaluator_round_trip(tmp_path, write_official_layout):
     saved = write_official_layout(tmp_path)
     ev = load_official_evaluator(tmp_path / "checkpoints", tmp_path / "glove")
     assert ev.epoch == 7 and ev.model.config == TINY and not ev.model.training
@@ -254,10 +244,10 @@ def test_load_official_evaluator_round_trip(tmp_path):
     norm = ev.normalizer.normalize(raw)
     norm[1, 8:] = 0.0
     with torch.no_grad():
-        torch.testing.assert_close(ev.embed_motions(raw, lengths), saved.encode_motion(norm, lengths))
+        torch.testing.assert_close(ev.embed_batch(raw, lengths), saved.encode_motion(norm, lengths))
 
 
-def test_load_official_evaluator_names_missing_files(tmp_path):
+def test_load_official_evaluator_names_missing_files(tmp_path, write_official_layout):
     write_official_layout(tmp_path)
     (tmp_path / "glove" / "our_vab_data.npy").unlink()
     (tmp_path / "checkpoints" / "t2m" / "Comp_v6_KLD005" / "meta" / "std.npy").unlink()
@@ -268,7 +258,7 @@ def test_load_official_evaluator_names_missing_files(tmp_path):
         load_official_evaluator(tmp_path / "checkpoints", tmp_path / "glove", dataset="kit")
 
 
-def test_load_official_evaluator_checks_the_feature_size(tmp_path):
+def test_load_official_evaluator_checks_the_feature_size(tmp_path, write_official_layout):
     small = dict(dim_text_hidden=4, dim_motion_hidden=4, dim_coemb=4, dim_movement_hidden=4, dim_movement_latent=4)
     kit_model = TextMotionEvaluator(EvaluatorConfig(dim_pose=251, **small))
     write_official_layout(tmp_path, "t2m", kit_model)  # a KIT-sized network where t2m is expected
@@ -346,7 +336,7 @@ def test_every_length_alone_embeds_as_in_the_official_batch():
     torch.testing.assert_close(alone, official, rtol=0, atol=1e-5)
 
 
-def test_official_evaluator_embeds_raw_features_as_the_official_loader(tmp_path):
+def test_official_evaluator_embeds_raw_features_as_the_official_loader(tmp_path, write_official_layout):
     write_official_layout(tmp_path)
     ev = load_official_evaluator(tmp_path, tmp_path)
     g = torch.Generator().manual_seed(1)
@@ -356,8 +346,21 @@ def test_official_evaluator_embeds_raw_features_as_the_official_loader(tmp_path)
     with torch.no_grad():
         expected = official_embeddings(ev.model, clips, mean, std)
     torch.testing.assert_close(
-        ev.embed_motions(padded(clips, 197, 0.0), [len(c) for c in clips]), expected, rtol=0, atol=1e-5
+        ev.embed_batch(padded(clips, 197, 0.0), [len(c) for c in clips]), expected, rtol=0, atol=1e-5
     )
+
+
+def test_official_evaluator_embeds_a_list_of_clips_like_every_evaluator(tmp_path, write_official_layout):
+    write_official_layout(tmp_path)
+    ev = load_official_evaluator(tmp_path, tmp_path)
+    g = torch.Generator().manual_seed(2)
+    clips = [torch.randn(n, 263, generator=g).numpy() for n in (196, 40, 123, 41, 8)]
+    whole = ev.embed_batch(padded([torch.as_tensor(c) for c in clips], 196, 0.0), [len(c) for c in clips]).numpy()
+    np.testing.assert_allclose(ev.embed_motions(clips, batch_size=2), whole, rtol=0, atol=1e-5)  # order kept
+    with pytest.raises(ValueError, match="non-empty list"):
+        ev.embed_motions(np.zeros((40, 263)))
+    with pytest.raises(ValueError, match=r"\(T, 263\)"):
+        ev.embed_motions([np.zeros((40, 251))])
 
 
 def test_official_motion_batch_crops_zeroes_and_pads():

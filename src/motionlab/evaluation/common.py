@@ -133,6 +133,9 @@ CLI_OPTIONS: dict[str, dict[str, Option]] = {
         "timing_repeats": Option("--timing-repeats"),
         "jerk": Option("--jerk", "switch"),
         "token_phases": Option("--token-phases", "switch"),
+        "evaluator": Option("--evaluator"),
+        "glove": Option("--glove"),
+        "window": Option("--window"),
     },
     "t2m": {
         **_SHARED_OPTIONS,

@@ -33,6 +33,9 @@ from .table import RECONSTRUCTION_METRICS, EvaluationTable
 
 GROUND_TRUTH = "Ground truth"  # the row of the real motion's own joint jerk (with ``jerk``)
 TIMING_BATCH = 32  # Table E times one batch of 32 token sequences
+OFFICIAL_WINDOW = 196  # the released evaluations zero-pad every clip to 196 frames before tokenising it
+BOOK_DECODERS = ("vq", "rvq", "discord", "feed-forward")
+RELEASED_TOKENIZERS = ("momask", "t2mgpt", "auto")  # spec kinds of motionlab.pretrained.parse_model_spec
 
 
 def _paper_row(decoder: str) -> dict[str, Estimate]:
@@ -47,11 +50,20 @@ PAPER_TABLE_1 = {"paper, HumanML3D: MoMask": _paper_row("ff"), "paper, HumanML3D
 
 @dataclass(frozen=True)
 class ReconstructionConfig:
-    """DisCoRD Table 1. ``decoder``: ``"vq"``/``"rvq"`` (that tokenizer's feed-forward decoder alone) or
-    ``"discord"`` (the feed-forward row and the DisCoRD row, both on ``tokenizer``'s ids; default ``"rvq"``
-    as MoMask + DisCoRD, ``"vq"`` gives T2M-GPT + DisCoRD). ``repeats`` applies to the DisCoRD row only.
-    ``prediction``/``normalization``/``time_distribution`` choose (and train on first use) a decoder other than
-    the profile's; ``temperature``/``spacing``/``final_prediction`` change only how it samples.
+    """DisCoRD Table 1. ``decoder``: ``"vq"``/``"rvq"`` (that tokenizer's feed-forward decoder alone), ``"discord"``
+    (the feed-forward row and the DisCoRD row, both on ``tokenizer``'s ids; default ``"rvq"`` as MoMask + DisCoRD,
+    ``"vq"`` gives T2M-GPT + DisCoRD), ``"feed-forward"`` (``tokenizer``'s own decoder alone) or
+    ``"discord:FOLDER"`` (a released DisCoRD decoder: the feed-forward row of its tokenizer and its DisCoRD row).
+    ``tokenizer``: the book's ``"vq"``/``"rvq"``, or a released checkpoint, ``"momask:FOLDER"`` /
+    ``"t2mgpt:PATH[,META]"`` (:func:`motionlab.pretrained.parse_model_spec`; None with a released decoder: the one
+    its YAML names). ``repeats`` applies to the DisCoRD row only. ``prediction``/``normalization``/
+    ``time_distribution`` choose (and train on first use) a book decoder other than the profile's;
+    ``temperature``/``spacing``/``final_prediction`` change only how it samples.
+
+    ``evaluator``: None (the book's, trained on ``dataset``) or ``"official:FOLDER"``, the released T2M evaluator
+    (:func:`motionlab.metrics.load_official_evaluator`; ``glove`` its GloVe folder, default FOLDER). ``window``:
+    zero-pad every clip to this many frames before it is tokenised, as the released evaluation scripts do (None:
+    196, the official window, with released models; each clip at its own length with the book's).
 
     Beyond Table 1 (each adds columns or rows, and the CLI prints them):
 
@@ -84,22 +96,24 @@ class ReconstructionConfig:
     timing_repeats: int = 0  # timed decodes per decoder row (0: no time column)
     jerk: bool = False
     token_phases: bool = False
+    evaluator: str | None = None  # None: the book's; "official:FOLDER": the released T2M evaluator
+    glove: str | None = None  # the official evaluator's GloVe folder (default: its FOLDER)
+    window: int | None = None  # zero-pad clips to this many frames before tokenising (None: 196 for released models)
 
     def __post_init__(self):
         object.__setattr__(self, "grid", _parse_grid(self.grid))
-        if self.decoder not in ("vq", "rvq", "discord"):
-            raise ValueError(f"decoder must be 'vq', 'rvq' or 'discord', got {self.decoder!r}")
-        if self.tokenizer is not None and self.tokenizer not in ("vq", "rvq"):
-            raise ValueError(f"tokenizer must be 'vq' or 'rvq', got {self.tokenizer!r}")
-        if self.tokenizer is not None and self.decoder != "discord":
-            raise ValueError(
-                f"decoder={self.decoder!r} is that tokenizer's own decoder; tokenizer= chooses the "
-                "tokens of decoder='discord' only"
-            )
-        _check_flow_options(self, self.decoder == "discord")
+        self._check_models()
+        _check_flow_options(self, self.uses_flow)
+        if self.released_decoder:
+            chosen = [name for name in FLOW_TRAINING_OPTIONS if getattr(self, name) is not None]
+            if chosen:
+                raise ValueError(
+                    f"{', '.join(chosen)} choose which book decoder to train; a released decoder is what it was "
+                    "trained as"
+                )
         _check_common(self, 2, " (FID needs two clips)")
-        if self.grid and self.decoder != "discord":
-            raise ValueError("grid adds DisCoRD rows; it needs decoder='discord'")
+        if self.grid and not self.uses_flow:
+            raise ValueError("grid adds DisCoRD rows; it needs decoder='discord' (or a released 'discord:FOLDER')")
         if self.grid_repeats is not None:
             _check_int("grid_repeats", self.grid_repeats, 1)
             if not self.grid:
@@ -108,6 +122,67 @@ class ReconstructionConfig:
         for name in ("jerk", "token_phases"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name} must be True or False, got {getattr(self, name)!r}")
+        if self.window is not None:
+            _check_int("window", self.window, 4)
+            if self.window % 4:
+                raise ValueError(f"window must be a multiple of 4 frames (one token), got {self.window}")
+
+    def _check_models(self) -> None:
+        """Which tokenizer, decoder and evaluator: the book's (by kind) or released ones (by spec), sensibly paired."""
+        released_tokens = self.released_tokenizer
+        if self.decoder not in BOOK_DECODERS and not self.released_decoder:
+            raise ValueError(f"decoder must be one of {BOOK_DECODERS} or 'discord:FOLDER', got {self.decoder!r}")
+        if released_tokens and self.tokenizer.partition(":")[0] not in RELEASED_TOKENIZERS:
+            kinds = ", ".join(f"'{k}:PATH'" for k in RELEASED_TOKENIZERS)
+            raise ValueError(f"a released tokenizer is one of {kinds}, got {self.tokenizer!r}")
+        if not released_tokens and self.tokenizer not in (None, "vq", "rvq"):
+            raise ValueError(
+                f"tokenizer must be 'vq', 'rvq' or a released checkpoint 'momask:FOLDER', got {self.tokenizer!r}"
+            )
+        if self.tokenizer is not None and self.decoder in ("vq", "rvq"):
+            raise ValueError(
+                f"decoder={self.decoder!r} is that tokenizer's own decoder; give tokenizer= with decoder='discord', "
+                "'feed-forward' or 'discord:FOLDER'"
+            )
+        if released_tokens and self.decoder == "discord":
+            raise ValueError(
+                "decoder='discord' is the book's decoder, trained on the book's tokens; decode a released tokenizer's "
+                "tokens with a released decoder ('discord:FOLDER') or its own ('feed-forward')"
+            )
+        if self.released_decoder and self.tokenizer in ("vq", "rvq"):
+            raise ValueError(
+                "a released DisCoRD decoder reads the codes of the tokenizer it was trained on: give "
+                "tokenizer='momask:FOLDER' or None (the one its config_model.yaml names)"
+            )
+        if self.released_decoder and released_tokens and "," in self.decoder:
+            raise ValueError("name the tokenizer once: tokenizer= or the ',TOKENIZER' part of 'discord:FOLDER,...'")
+        if self.evaluator is not None and not (self.evaluator.startswith("official:") and self.evaluator[9:]):
+            raise ValueError(f"evaluator must be None (the book's) or 'official:FOLDER', got {self.evaluator!r}")
+        if self.glove is not None and self.evaluator is None:
+            raise ValueError("glove is the official evaluator's vocabulary; it needs evaluator='official:FOLDER'")
+
+    @property
+    def released_tokenizer(self) -> bool:
+        return isinstance(self.tokenizer, str) and ":" in self.tokenizer
+
+    @property
+    def released_decoder(self) -> bool:
+        return isinstance(self.decoder, str) and self.decoder.startswith("discord:")
+
+    @property
+    def released(self) -> bool:
+        """Whether the tokens come from a released checkpoint (then no book tokenizer or decoder is loaded)."""
+        return self.released_tokenizer or self.released_decoder
+
+    @property
+    def uses_flow(self) -> bool:
+        return self.decoder == "discord" or self.released_decoder
+
+    def book_models(self) -> list[str]:
+        """The book's models (:func:`motionlab.models.load` names) this evaluation loads, or trains on first use."""
+        names = [] if self.released else [f"tokenizer/{self.tokenizer_kind}"]
+        names += ["evaluator"] if self.evaluator is None else []
+        return names + ([f"discord/{self.tokenizer_kind}"] if self.decoder == "discord" else [])
 
     @classmethod
     def from_sizes(cls, sizes: Any, **options: Any) -> ReconstructionConfig:
@@ -149,7 +224,10 @@ class ReconstructionConfig:
 
     @property
     def tokenizer_kind(self) -> str:
-        return self.decoder if self.decoder != "discord" else (self.tokenizer or "rvq")
+        """The book tokenizer's kind, ``"vq"`` or ``"rvq"`` ("released" for a released checkpoint)."""
+        if self.released:
+            return "released"
+        return self.decoder if self.decoder in ("vq", "rvq") else (self.tokenizer or "rvq")
 
 
 def _parse_grid(grid: Any) -> tuple[tuple[str, int], ...]:
@@ -201,53 +279,44 @@ def evaluate_reconstruction(
     """
     from motionlab.flow.reconstruction import decode_clips, reconstruction_scores
     from motionlab.metrics import ClipJoints
-    from motionlab.metrics.evaluator_training import load_or_train_evaluator
-    from motionlab.tokenizers import tokenizer_for_dataset
 
     cfg = _config(config, ReconstructionConfig)
     profile = get_profile(profile)
     clips = _split_clips(dataset, cfg.split, cfg.limit, 2, "FID")
-    kind = cfg.tokenizer_kind
-    _phase(
-        f"reconstruction: {len(clips)} {cfg.split} clips; loading (or training) the {kind} tokenizer and the evaluator"
-    )
-    tokenizer = tokenizer_for_dataset(kind, dataset, profile, device=device, progress=progress)
-    evaluator = load_or_train_evaluator(dataset, profile, device=device, progress=progress)
-    q, normalizer = int(tokenizer.downsample), dataset.normalizer
-    normalized = [normalizer.normalize(c.features) for c in clips]  # (T_i, D) each, what the tokenizer reads
-    gt = [c.features[: len(c.features) // q * q] for c in clips]  # raw, whole tokens
+    models = _load_models(cfg, dataset, profile, device, progress, len(clips))
+    tokenizer, normalizer = models.tokenizer, models.normalizer
+    q = int(tokenizer.downsample)
+    window = cfg.window if cfg.window is not None else (OFFICIAL_WINDOW if cfg.released else None)
+    features = [c.features if window is None else c.features[:window] for c in clips]  # the official loader's crop
+    normalized = [normalizer.normalize(f) for f in features]  # (T_i, D) each, what the tokenizer reads
+    gt = [f[: len(f) // q * q] for f in features]  # raw, whole tokens
+    evaluator = models.evaluator
     gt_embeddings = evaluator.embed_motions(gt)  # (N, d), shared by every row's FID
     gt_joints = ClipJoints.from_features(gt)  # recovered once, shared by every row's MPJPE and sJPE
     phases = _phase_metrics(q) if cfg.token_phases else ()
 
-    def score(recon: list[np.ndarray]) -> dict[str, float]:
-        raw = [normalizer.denormalize(r) for r in recon]
+    def score(recon: list[np.ndarray], space=normalizer) -> dict[str, float]:
+        raw = [space.denormalize(r) for r in recon]
         joints = ClipJoints.from_features(raw)
         scores = reconstruction_scores(raw, gt, evaluator.embed_motions, gt_embeddings, gt_joints, joints).as_dict()
         if phases:
             scores.update(_token_phases(joints, gt_joints, q))
         return scores
 
-    name = "VQ-VAE" if kind == "vq" else "RVQ-VAE"
-    feed_forward = f"{name} decoder"
+    _announce(_cost_line(models, normalized, window, cfg), progress)
+    feed_forward = f"{models.tokens} decoder"
     _phase(f"scoring the {feed_forward}")
-    runs = {feed_forward: [score(decode_clips(normalized, tokenizer))]}
+    runs = {feed_forward: [score(decode_clips(normalized, tokenizer, pad_to=window))]}
     deterministic = [feed_forward]
     notes = ["The feed-forward decoder is deterministic: one run, no interval."]
+    if window is not None:
+        notes.append(f"Every clip was tokenised zero-padded to {window} frames, as the released evaluation does.")
     timers: dict[str, Callable[[], Any]] = {}
     batch = _timing_batch(normalized, tokenizer) if cfg.timing_repeats else None
     if batch is not None:
         timers[feed_forward] = lambda: tokenizer.decode(batch)
-    if cfg.decoder == "discord":
-        from motionlab.flow import discord_config, train_or_load_discord
-
-        chosen = {name: getattr(cfg, name) for name in FLOW_OPTIONS if getattr(cfg, name) is not None}
-        training = {k: v for k, v in chosen.items() if k in FLOW_TRAINING_OPTIONS}
-        flow_config = discord_config(profile, tokenizer=tokenizer, **training)
-        _phase("loading (or training) the DisCoRD decoder")
-        flow = train_or_load_discord(dataset, tokenizer, profile, config=flow_config, device=device, progress=progress)
-        sampling = {k: v for k, v in chosen.items() if k in FLOW_SAMPLING_OPTIONS}
-        flow = flow.with_sampling(**sampling) if sampling else flow
+    if models.flow is not None:
+        flow = models.flow
         seeded = not flow.deterministic  # at temperature 0 every seed decodes the same motion
         decoded: dict[tuple[int, str], list[dict[str, float]]] = {}  # (steps, solver) -> runs, repeat by repeat
 
@@ -259,8 +328,10 @@ def evaluate_reconstruction(
                 for r in todo:
                     _phase(f"DisCoRD {what}: repeat {r + 1} of {repeats if seeded else 1}")
                     seed = repeat_seed(cfg.seed, r)
-                    recon = decode_clips(normalized, tokenizer, flow, steps=steps, solver=solver, seed=seed)
-                    done.append(score(recon))
+                    recon = decode_clips(
+                        normalized, tokenizer, flow, steps=steps, solver=solver, seed=seed, pad_to=window
+                    )
+                    done.append(score(recon, models.flow_normalizer))
                     bar.update()
             return done[: repeats if seeded else 1]
 
@@ -270,7 +341,8 @@ def evaluate_reconstruction(
 
         steps = flow.config.sample_steps if cfg.steps is None else cfg.steps
         solver = flow.config.solver if cfg.solver is None else cfg.solver
-        flow_row = f"{name} tokens + DisCoRD ({_flow_label(flow, cfg.steps, cfg.solver)}{_flow_options_label(flow)})"
+        options = "" if cfg.released_decoder else _flow_options_label(flow)  # a released decoder is the paper's
+        flow_row = f"{models.tokens} tokens + {models.flow_name} ({_flow_label(flow, cfg.steps, cfg.solver)}{options})"
         runs[flow_row] = flow_runs(steps, solver, cfg.repeats, "repeats")
         if batch is not None:
             timers[flow_row] = timer(steps, solver)
@@ -290,7 +362,7 @@ def evaluate_reconstruction(
         if cfg.grid:
             seeds = f"the first {grid_repeats} of the DisCoRD row's seeds" if seeded else "one run each"
             notes.append(
-                f"Grid rows: the same decoder{_flow_options_label(flow)} with other ODE steps, {seeds}; "
+                f"Grid rows: the same decoder{options} with other ODE steps, {seeds}; "
                 "an evaluation is one network call."
             )
     rows = {row: _summarize(values) for row, values in runs.items()}
@@ -321,7 +393,7 @@ def evaluate_reconstruction(
             f"tokens ({tokens * q} frames), the {size} longest clips cropped to the shortest of them; GFLOPs: matrix "
             "products and convolutions of one such decode."
         )
-    return _table(
+    table = _table(
         "reconstruction",
         dataset,
         profile,
@@ -334,6 +406,151 @@ def evaluate_reconstruction(
         notes=[" ".join(notes)],
         samples=samples,
     )
+    if cfg.released_decoder and int(tokenizer.feature_dim) == 263:  # the paper's HumanML3D rows, to read beside
+        table = table.with_rows(PAPER_TABLE_1, deterministic=tuple(PAPER_TABLE_1))
+    return table
+
+
+def _announce(text: str, progress: bool) -> None:
+    """A line the reader must see before the work starts: a phase line, and on a terminal above the bars."""
+    import sys
+
+    from tqdm.auto import tqdm
+
+    _phase(text)
+    if progress:
+        tqdm.write(text, file=sys.stderr)
+
+
+def _cost_line(models: _Models, normalized: list[np.ndarray], window: int | None, cfg: ReconstructionConfig) -> str:
+    """What the evaluation will cost, counted before it runs (:func:`motionlab.flow.reconstruction.decode_cost` of a
+    median clip): each decoder's arithmetic per clip, and the total over the clips and repeats, in CPU time at the
+    rate one network call ran at here."""
+    from motionlab.flow import n_evaluations
+    from motionlab.flow.reconstruction import decode_cost
+
+    q, flow = int(models.tokenizer.downsample), models.flow
+    frames = window or sorted(len(c) // q * q for c in normalized)[len(normalized) // 2]  # a median clip
+    cost = decode_cost(models.tokenizer, flow, frames, cfg.steps, cfg.solver)
+    parts = [f"feed-forward decoder {cost.feed_forward_gflop:.3g} GFLOP per clip"]
+    total = cost.total_gflop(len(normalized), 0)
+    if flow is not None:
+        runs = [(cost.discord_calls, cfg.repeats)]
+        grid_repeats = cfg.repeats if cfg.grid_repeats is None else cfg.grid_repeats
+        runs += [(n_evaluations(k, s), grid_repeats) for s, k in cfg.grid]
+        total += (
+            sum(calls * (1 if flow.deterministic else r) for calls, r in runs)
+            * cost.discord_call_gflop
+            * len(normalized)
+        )
+        parts.append(
+            f"DisCoRD {cost.discord_gflop:.3g} GFLOP per clip ({cost.discord_calls} network calls, "
+            f"{cost.discord_gflop / cost.feed_forward_gflop:.0f}x the feed-forward decoder)"
+        )
+    seconds = total / cost.gflop_per_cpu_second
+    if seconds >= 3600:
+        spent = f"{seconds / 3600:,.1f} CPU-hours"
+    else:
+        spent = f"{seconds / 60:.0f} CPU-minutes" if seconds >= 90 else f"{seconds:.0f} CPU-seconds"
+    return (
+        f"reconstruction cost: {', '.join(parts)}; {len(normalized)} clips of {frames} frames in all: "
+        f"{total / 1e3:.3g} TFLOP, about {spent} at the {cost.gflop_per_cpu_second:.0f} GFLOP per CPU-second one "
+        "network call ran at here"
+    )
+
+
+@dataclass
+class _Models:
+    """What a reconstruction decodes with: the tokenizer (and the feature space its inputs live in), the DisCoRD
+    decoder if any (and the space its output lives in), the evaluator, and the names of the rows."""
+
+    tokenizer: Any
+    normalizer: Any
+    evaluator: Any
+    tokens: str  # "RVQ-VAE", "MoMask RVQ-VAE (released)", ...
+    flow: Any = None
+    flow_normalizer: Any = None
+    flow_name: str = "DisCoRD"
+
+
+_RELEASED_NAMES = {"momask_rvq": "MoMask RVQ-VAE (released)", "t2mgpt_vq": "T2M-GPT VQ-VAE (released)"}
+
+
+def _load_models(cfg: ReconstructionConfig, dataset, profile: str, device, progress: bool, clips: int) -> _Models:
+    """The book's models (loaded from the cache, trained on first use) or the released ones the config names."""
+    from motionlab.metrics.evaluator_training import load_or_train_evaluator
+
+    evaluator_name = "the official evaluator" if cfg.evaluator else "the evaluator"
+    if cfg.released:
+        _phase(f"reconstruction: {clips} {cfg.split} clips; loading the released checkpoints and {evaluator_name}")
+        models = _released_models(cfg, device)
+    else:
+        from motionlab.tokenizers import tokenizer_for_dataset
+
+        kind = cfg.tokenizer_kind
+        _phase(
+            f"reconstruction: {clips} {cfg.split} clips; loading (or training) the {kind} tokenizer, {evaluator_name}"
+        )
+        tokenizer = tokenizer_for_dataset(kind, dataset, profile, device=device, progress=progress)
+        tokens = "VQ-VAE" if kind == "vq" else "RVQ-VAE"
+        models = _Models(tokenizer, dataset.normalizer, None, tokens)
+        if cfg.decoder == "discord":
+            models.flow, models.flow_normalizer = _book_decoder(cfg, dataset, tokenizer, profile, device, progress)
+    dim = int(models.tokenizer.feature_dim)
+    if dataset.normalizer.dim != dim:
+        raise ValueError(
+            f"the tokenizer reads {dim}-d features but the dataset {dataset.key} has {dataset.normalizer.dim}"
+        )
+    if cfg.evaluator is not None:
+        from motionlab.metrics import load_official_evaluator
+
+        root = cfg.evaluator.partition(":")[2]
+        official = "t2m" if dim == 263 else "kit"
+        models.evaluator = load_official_evaluator(root, cfg.glove or root, official, device=_device(device))
+    else:
+        models.evaluator = load_or_train_evaluator(dataset, profile, device=device, progress=progress)
+    return models
+
+
+def _book_decoder(cfg: ReconstructionConfig, dataset, tokenizer, profile: str, device, progress: bool):
+    """The book's DisCoRD decoder for ``tokenizer``'s tokens, with the config's options, and its output space."""
+    from motionlab.flow import discord_config, train_or_load_discord
+
+    chosen = {name: getattr(cfg, name) for name in FLOW_OPTIONS if getattr(cfg, name) is not None}
+    training = {k: v for k, v in chosen.items() if k in FLOW_TRAINING_OPTIONS}
+    flow_config = discord_config(profile, tokenizer=tokenizer, **training)
+    _phase("loading (or training) the DisCoRD decoder")
+    flow = train_or_load_discord(dataset, tokenizer, profile, config=flow_config, device=device, progress=progress)
+    sampling = {k: v for k, v in chosen.items() if k in FLOW_SAMPLING_OPTIONS}
+    return (flow.with_sampling(**sampling) if sampling else flow), dataset.normalizer
+
+
+def _released_models(cfg: ReconstructionConfig, device) -> _Models:
+    """The released tokenizer (and DisCoRD decoder), each with the normalisation of its folder."""
+    from motionlab.pretrained import load_discord_decoder, parse_model_spec
+
+    flow = None
+    if cfg.released_decoder and cfg.released_tokenizer:
+        tokenizer = parse_model_spec(cfg.tokenizer, device=_device(device))
+        flow = load_discord_decoder(cfg.decoder.partition(":")[2], tokenizer=tokenizer, device=_device(device))
+    elif cfg.released_decoder:
+        flow = parse_model_spec(cfg.decoder, device=_device(device))
+        tokenizer = flow.tokenizer
+    else:
+        tokenizer = parse_model_spec(cfg.tokenizer, device=_device(device))
+    tokens = _RELEASED_NAMES.get(tokenizer.provenance.kind, "released tokenizer")
+    models = _Models(tokenizer, tokenizer.normalizer, None, tokens)
+    if flow is not None:
+        sampling = {name: getattr(cfg, name) for name in FLOW_SAMPLING_OPTIONS if getattr(cfg, name) is not None}
+        models.flow = flow.with_sampling(**sampling) if sampling else flow
+        models.flow_normalizer, models.flow_name = flow.normalizer, "DisCoRD (released)"
+    return models
+
+
+def _device(device) -> Any:
+    from motionlab.train.device import get_device
+
+    return get_device(device)
 
 
 def _phase_metrics(q: int) -> tuple[str, ...]:

@@ -62,15 +62,23 @@ def decode_clips(
     solver: str | None = None,
     seed: int = 0,
     batch_size: int = 64,
+    pad_to: int | None = None,
 ) -> list[np.ndarray]:
     """Reconstruct normalised clips ``(T_i, D)`` through the tokenizer's tokens; returns ``(T_i', D)`` arrays.
 
     ``T_i'`` is ``T_i`` floored to whole tokens (the ground truth to compare with is ``clip[:T_i']``).
     ``decoder=None`` uses the tokenizer's feed-forward decoder; a :class:`~motionlab.flow.DisCoRDDecoder`
     decodes the same ids with ``steps`` intervals of ``solver`` (its config's defaults if ``None``).
+    ``pad_to`` (e.g. the official evaluation's 196) appends zero frames (the normalised mean pose) to every clip
+    before it is tokenised, as the released evaluation scripts do, and crops the decoded motion back to ``T_i'``.
     """
     q = int(tokenizer.downsample)
     crops = _check_clips(clips, int(tokenizer.feature_dim), q)
+    lengths = [len(c) for c in crops]
+    if pad_to is not None:
+        if pad_to % q or pad_to < max(lengths):
+            raise ValueError(f"pad_to={pad_to} must be a multiple of {q} and at least the longest clip, {max(lengths)}")
+        crops = [np.concatenate([c, np.zeros((pad_to - len(c), c.shape[1]), c.dtype)]) for c in crops]
     out: list[np.ndarray | None] = [None] * len(crops)
     for k, idx in enumerate(length_batches([len(c) for c in crops], batch_size)):
         motion = torch.as_tensor(np.stack([crops[i] for i in idx]))  # (B, T, D)
@@ -81,7 +89,7 @@ def decode_clips(
             recon = decoder.decode(ids, tokenizer=tokenizer, steps=steps, solver=solver, seed=seed + k)
         recon = recon.float().cpu().numpy()  # (B, T, D)
         for j, i in enumerate(idx):
-            out[i] = recon[j]
+            out[i] = recon[j, : lengths[i]]
     return out  # type: ignore[return-value]
 
 
@@ -276,7 +284,93 @@ def count_flops(fn: Callable[[], Any]) -> int:
     return int(counter.get_total_flops())
 
 
+@dataclass(frozen=True)
+class DecodeCost:
+    """What decoding one clip of ``frames`` frames costs, counted: the feed-forward decoder's FLOPs, one DisCoRD
+    network call's and the calls a decode makes, and the rate (GFLOP per CPU-second, all threads together) that one
+    such call ran at on this machine."""
+
+    frames: int
+    feed_forward_gflop: float
+    discord_call_gflop: float | None
+    discord_calls: int | None
+    gflop_per_cpu_second: float
+
+    @property
+    def discord_gflop(self) -> float | None:
+        """One whole DisCoRD decode: a network call's FLOPs times the calls (the condition projection counted with
+        each call, a slight over-count)."""
+        return None if self.discord_call_gflop is None else self.discord_call_gflop * self.discord_calls
+
+    def total_gflop(self, clips: int, discord_decodes: int = 1) -> float:
+        """The feed-forward decode of ``clips`` clips plus ``discord_decodes`` DisCoRD decodes of each."""
+        return clips * (self.feed_forward_gflop + discord_decodes * (self.discord_gflop or 0.0))
+
+    def cpu_hours(self, clips: int, discord_decodes: int = 1) -> float:
+        """:meth:`total_gflop` at this machine's measured rate."""
+        return self.total_gflop(clips, discord_decodes) / self.gflop_per_cpu_second / 3600
+
+    def table(self, clips: int, discord_decodes: int, gpu_tflops: float = 50.0):
+        """Per decoder: GFLOP per clip, its ratio to the feed-forward decoder, the CPU-hours of ``clips`` clips
+        decoded ``discord_decodes`` times (once for the deterministic feed-forward decoder) at this machine's rate,
+        and the GPU minutes at a sustained ``gpu_tflops`` (an assumption, not a measurement)."""
+        from motionlab.viz.tables import Table
+
+        def row(gflop: float, decodes: int) -> dict[str, float]:
+            total = clips * decodes * gflop
+            return {
+                "GFLOP per clip": gflop,
+                "× feed-forward": gflop / self.feed_forward_gflop,
+                "CPU-hours here": total / self.gflop_per_cpu_second / 3600,
+                f"GPU minutes at {gpu_tflops:g} TFLOP/s": total / (gpu_tflops * 1e3) / 60,
+            }
+
+        rows = {"feed-forward decoder (one run)": row(self.feed_forward_gflop, 1)}
+        if self.discord_gflop is not None:
+            rows[f"DisCoRD, {self.discord_calls} network calls ({discord_decodes} runs)"] = row(
+                self.discord_gflop, discord_decodes
+            )
+        note = (
+            f"{clips:,} clips of {self.frames} frames; CPU time at the {self.gflop_per_cpu_second:.0f} GFLOP per "
+            "CPU-second one network call ran at on this machine, in its precision."
+        )
+        return Table("decoder", rows, notes=(note,), formats={"× feed-forward": ".0f"})
+
+
+@torch.no_grad()
+def decode_cost(tokenizer: Any, decoder: Any = None, frames: int = 196, steps=None, solver=None) -> DecodeCost:
+    """Count the FLOPs (:func:`count_flops`) of decoding one ``frames``-frame clip with ``tokenizer``'s feed-forward
+    decoder and with ``decoder`` (a DisCoRD decoder: one network call, times the calls of ``steps`` intervals of
+    ``solver``, its config's by default), and time one call's CPU seconds here (after one untimed)."""
+    from motionlab.flow.rectified_flow import n_evaluations
+
+    q = int(tokenizer.downsample)
+    if frames < q or frames % q:
+        raise ValueError(f"frames must be a positive multiple of {q}, got {frames}")
+    device = next(tokenizer.parameters()).device
+    ids = tokenizer.encode(torch.zeros(1, frames, int(tokenizer.feature_dim), device=device))  # (1, N[, R])
+    call = lambda: tokenizer.decode(ids)  # noqa: E731
+    feed_forward = call_flops = count_flops(call)
+    per_call = calls = None
+    if decoder is not None:
+        config = decoder.config
+        calls = n_evaluations(
+            config.sample_steps if steps is None else steps, config.solver if solver is None else solver
+        )
+        call = lambda: decoder.decode(ids, tokenizer=tokenizer, steps=1, solver="euler", seed=0)  # noqa: E731
+        per_call = call_flops = count_flops(call)
+    call()  # warm
+    start = time.process_time()
+    call()
+    seconds = max(time.process_time() - start, 1e-6)
+    return DecodeCost(
+        frames, feed_forward / 1e9, None if per_call is None else per_call / 1e9, calls, call_flops / 1e9 / seconds
+    )
+
+
 __all__ = [
+    "DecodeCost",
+    "decode_cost",
     "ReconstructionScores",
     "count_flops",
     "decode_clips",

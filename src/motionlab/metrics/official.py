@@ -68,7 +68,7 @@ class OfficialEvaluator:
         return self.model.encode_text(enc.words.to(dev), enc.pos_onehot.to(dev), enc.lengths)
 
     @torch.no_grad()
-    def embed_motions(self, features, lengths) -> torch.Tensor:
+    def embed_batch(self, features, lengths) -> torch.Tensor:
         """*Raw* features ``(B, T, D)`` padded any way (normalised here) and lengths ``(B,)`` -> ``(B, 512)``.
 
         The padding never matters: a clip's embedding is the one the official evaluation gives its first
@@ -79,6 +79,27 @@ class OfficialEvaluator:
             raise ValueError(f"features must have shape (B, T, D), got {tuple(x.shape)}")
         lengths = _check_lengths(lengths, x.shape[0], x.shape[1], "lengths")
         return self.model.encode_motion(self.normalizer.normalize(x), lengths)
+
+    def embed_motions(self, motions: Sequence, batch_size: int = 32) -> np.ndarray:
+        """Raw clips, a list of ``(T_i, D)`` arrays (4 to 196 frames) -> ``(N, 512)`` in the caller's order: what
+        every evaluation in motionlab asks of an evaluator, as the trained one's
+        (:meth:`~motionlab.metrics.evaluator_training.EmbeddedEvaluator.embed_motions`) does. Batches of
+        ``batch_size`` clips of similar length (no embedding depends on its batch)."""
+        if isinstance(motions, np.ndarray) or len(motions) == 0:
+            raise ValueError("motions must be a non-empty list of (T, D) arrays")
+        clips = [np.asarray(m, dtype=np.float32) for m in motions]
+        if any(c.ndim != 2 or c.shape[1] != self.normalizer.dim for c in clips):
+            raise ValueError(f"every motion must have shape (T, {self.normalizer.dim})")
+        order = np.argsort([len(c) for c in clips], kind="stable")
+        out = np.zeros((len(clips), self.model.config.dim_coemb), dtype=np.float32)
+        for s in range(0, len(clips), batch_size):
+            idx = order[s : s + batch_size]
+            longest = max(len(clips[i]) for i in idx)
+            x = np.zeros((len(idx), longest, self.normalizer.dim), dtype=np.float32)  # (B, T_max, D)
+            for j, i in enumerate(idx):
+                x[j, : len(clips[i])] = clips[i]
+            out[idx] = self.embed_batch(x, [len(clips[i]) for i in idx]).cpu().numpy()
+        return out
 
     def _device(self) -> torch.device:
         return next(self.model.parameters()).device
