@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import importlib
 import inspect
+from dataclasses import replace
 from functools import partial
 from types import SimpleNamespace
 
@@ -220,3 +221,23 @@ def test_trained_model_refuses_clearly(loads, args, message):
 def test_models_load_names_an_unknown_model(name, message):
     with pytest.raises(ValueError, match=message):
         models.load(name, SimpleNamespace(key="unused"), "smoke")
+
+
+def test_a_budget_name_is_the_arm_s_model_trained_for_that_many_steps(monkeypatch):
+    from motionlab.diffusion import training
+
+    monkeypatch.setattr(models, "_tokenizer", lambda kind, dataset, profile, device: SimpleNamespace(codebook_size=256))
+    calls = []
+    monkeypatch.setattr(
+        "motionlab.diffusion.text_to_motion_for_dataset", lambda dataset, profile, **kw: calls.append(kw) or kw
+    )
+    own = training.diffusion_training_config("laptop", num_codes=256)
+    assert models.load("t2m/dynamic-steps800", "data", "laptop")["config"] == own  # the laptop model's own key
+    assert models.load("t2m/uniform-steps800", "data", "laptop")["config"] == training.diffusion_training_config(
+        "laptop", num_codes=256, eta=0.0
+    )
+    longer = models.load("t2m/dynamic-seed2-steps8000", "data", "laptop")
+    assert longer["config"].transformer.train_steps == 8000 and longer["seed"] == 2
+    assert longer["config"].transformer == replace(own.transformer, train_steps=8000)
+    with pytest.raises(ValueError, match="at least 1 step"):
+        models.load("t2m/dynamic-steps0", "data", "laptop")

@@ -19,6 +19,7 @@ name                            model
 ``t2m/dynamic``, ``/uniform``   the text-to-motion models with dynamic (paper η) and uniform (η = 0) transitions
 ``t2m/multi-eta0.25``           the dynamic model at M2D2M's multi-motion η
 ``t2m/<arm>-seed<k>``           a training-seed replicate of ``dynamic`` or ``uniform`` (chapter 08)
+``t2m/<arm>-steps<n>``          that model trained for ``n`` steps (also ``-seed<k>-steps<n>``; the budget study)
 ``t2m/distance-<kind>``         chapter 08's distance ablation (``l2``, ``cosine``, ``cosine_rank``; full profile)
 ``evaluator``                   the text-motion evaluator of the FID / R-precision protocol
 ==============================  ==================================================================================
@@ -36,7 +37,7 @@ from motionlab.profiles import get_profile
 
 PROJECTIONS = ("stacked", "repeat", "transposed")
 DISTANCES = ("l2", "cosine", "cosine_rank")
-_T2M = re.compile(r"^t2m/(dynamic|uniform)(?:-seed(\d+))?$")
+_T2M = re.compile(r"^t2m/(dynamic|uniform)(?:-seed(\d+))?(?:-steps(\d+))?$")
 
 
 def _tokenizer(kind: str, dataset, profile: str, device):
@@ -80,11 +81,33 @@ def _text_to_motion(variant: str, dataset, profile: str, device):
             f"unknown text-to-motion model {name!r}; use t2m/dynamic, t2m/uniform, t2m/<arm>-seed<k>, "
             f"t2m/multi-eta0.25 or t2m/distance-{{{','.join(DISTANCES)}}}"
         )
-    arm, training_seed = match.group(1), match.group(2)
+    arm, training_seed, steps = match.group(1), match.group(2), match.group(3)
+    if steps is not None:  # another training budget: the profile's model trained for `steps` steps
+        return text_to_motion_for_dataset(
+            dataset,
+            profile,
+            config=_budget_config(arm, dataset, profile, int(steps), device),
+            seed=int(training_seed or 0),
+            device=device,
+        )
     if training_seed is None:  # seed 0 of each arm: the profile's default eta and seed
         return text_to_motion_for_dataset(dataset, profile, eta=None if arm == "dynamic" else 0.0, device=device)
     eta = PAPER_ETA if arm == "dynamic" else 0.0
     return text_to_motion_for_dataset(dataset, profile, eta=eta, seed=int(training_seed), device=device)
+
+
+def _budget_config(arm: str, dataset, profile: str, steps: int, device):
+    """The profile's text-to-motion config of ``arm`` with ``steps`` training steps (its schedule stretched to them:
+    the learning rate still drops at 100/110 of the run); at the profile's own steps it is the profile's model."""
+    from dataclasses import replace
+
+    from motionlab.diffusion.training import PAPER_ETA, diffusion_training_config, with_overrides
+
+    if steps < 1:
+        raise ValueError(f"a training budget needs at least 1 step, got t2m/...-steps{steps}")
+    codes = _tokenizer("vq", dataset, profile, device).codebook_size
+    config = diffusion_training_config(profile, num_codes=codes, eta=PAPER_ETA if arm == "dynamic" else 0.0)
+    return with_overrides(config, transformer=replace(config.transformer, train_steps=steps))
 
 
 def load(

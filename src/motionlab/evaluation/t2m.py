@@ -42,7 +42,7 @@ GROUND_TRUTH, RECONSTRUCTION = "Ground Truth", "VQ-VAE (reconstruction)"
 # Text-to-motion names :func:`motionlab.models.load` knows, plus ``t2m/eta<η>`` (training seed 0 at any η; the
 # full profile's η sweep reaches η's the training plan has no name for).
 _MODEL_NAME = re.compile(
-    r"^t2m/(?:(?:dynamic|uniform)(?:-seed\d+)?|multi-eta0\.25|distance-(?:l2|cosine|cosine_rank)|eta\d+(?:\.\d+)?)$"
+    r"^t2m/(?:(?:dynamic|uniform)(?:-seed\d+)?(?:-steps\d+)?|multi-eta0\.25|distance-(?:l2|cosine|cosine_rank)|eta\d+(?:\.\d+)?)$"
 )
 _ETA_NAME = re.compile(r"^t2m/eta(\d+(?:\.\d+)?)$")
 
@@ -71,7 +71,7 @@ def eta_model(eta: float) -> str:
 def _check_model(name: Any) -> str:
     if not isinstance(name, str) or not _MODEL_NAME.match(name):
         raise ValueError(
-            f"unknown text-to-motion model {name!r}; use t2m/dynamic, t2m/uniform, t2m/<arm>-seed<k>, "
+            f"unknown text-to-motion model {name!r}; use t2m/dynamic, t2m/uniform, t2m/<arm>-seed<k>[-steps<n>], "
             "t2m/multi-eta0.25, t2m/distance-{l2,cosine,cosine_rank} or t2m/eta<η>"
         )
     return name

@@ -1,0 +1,135 @@
+"""At what training budget do M2D2M's claims hold? Train the text-to-motion models far past the laptop budget and score
+each budget with one fixed evaluator (issue 35's budget study; chapter 05's DisCoRD budget curve, for M2D2M).
+
+A model is ``t2m/<arm>-seed<k>-steps<n>`` (:func:`motionlab.models.load`): the laptop profile's text-to-motion model
+of ``arm`` (``dynamic``: M2D2M's β(t, d) at the paper's η = 0.5; ``uniform``: VQ-Diffusion's, η = 0) with training
+seed ``k``, trained for ``n`` steps with its learning-rate drop stretched to them (the laptop profile trains 800;
+``-steps800`` *is* the book's model). Each is trained once into the model cache (resumable: its checkpoints stay
+there) and then scored with the book's evaluations at chapter 07's and chapter 09's laptop sizes:
+
+- ``evaluate_t2m`` at guidance scales 0, 1, 2 and 4: FID, R-precision, MM-Dist, Diversity (the guidance claim and
+  dynamic vs uniform on single motions);
+- ``evaluate_multi`` of ``independent``, ``tps``, ``tps:T_s=50`` and ``handshake:transition=40``: transition Jerk,
+  the Jerk inside the actions, per-action FID (TPS vs independent, TPS vs Handshake, the T_s trade-off, and dynamic
+  vs uniform under TPS).
+
+One process per arm, one torch thread each, so two arms share a 2-core machine fairly; budgets run in the order
+given, so the short ones arrive first::
+
+    python experiments/m2d2m_budget.py --arm dynamic --seeds 0 1 2 --steps 800 1600 3200 6400 8000 &
+    python experiments/m2d2m_budget.py --arm uniform --seeds 0 1 2 --steps 800 1600 3200 6400 8000 &
+
+Every model's result goes to ``<out>/<arm>-seed<k>-steps<n>.json`` (written atomically; an existing one is skipped)
+with the machine, the precision, the commit and the training time; one folder per version of the embedded data
+(``book/data/m2d2m_budget/embedded-v<N>/``), which the chapters read.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import torch
+
+from motionlab import models
+from motionlab.data.embedded.generator import VERSION
+from motionlab.evaluation import MultiMotionConfig, TextToMotionConfig, evaluate_multi, evaluate_t2m
+from motionlab.io.common import write_text_atomic
+from motionlab.precision import read_cpu_info, resolve_precision
+from motionlab.sizes import chapter_sizes
+
+ARMS = ("dynamic", "uniform")
+GUIDANCE_SCALES = (0.0, 1.0, 2.0, 4.0)
+MULTI_METHODS = ("independent", "tps", "tps:T_s=50", "handshake:transition=40")
+OUT = Path(__file__).resolve().parents[1] / "book" / "data" / "m2d2m_budget" / f"embedded-v{VERSION}"
+
+
+def model_name(arm: str, seed: int, steps: int) -> str:
+    return f"t2m/{arm}-seed{seed}-steps{steps}"
+
+
+def _commit() -> str | None:
+    try:
+        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=True)
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    return out.stdout.strip() or None
+
+
+def score(name: str, profile: str, seed: int = 0) -> dict:
+    """Train (or load) ``name`` and score it at the chapters' sizes of ``profile``: both tables as JSON dicts."""
+    sizes = chapter_sizes(profile)
+    dataset = models.load("data", None, profile)
+    start, cpu = time.perf_counter(), time.process_time()
+    models.load(name, dataset, profile)  # trained here on first use, so that its time is its own
+    training = {"seconds": round(time.perf_counter() - start, 1), "cpu_seconds": round(time.process_time() - cpu, 1)}
+    t2m = TextToMotionConfig(
+        models=(name,),
+        guidance_scales=GUIDANCE_SCALES,
+        limit=sizes.diffusion.eval_clips,
+        repeats=sizes.diffusion.repeats,
+        num_steps=sizes.diffusion.num_steps,
+        seed=seed,
+    )
+    multi = MultiMotionConfig(
+        methods=MULTI_METHODS,
+        model=name,
+        segment_jerk=True,
+        instances=sizes.tps.instances,
+        repeats=sizes.tps.repeats,
+        num_steps=sizes.tps.num_steps,
+        seed=seed,
+    )
+    return {
+        "training": training,
+        "t2m": evaluate_t2m(dataset, t2m, profile).to_json_dict(),
+        "multi": evaluate_multi(dataset, multi, profile).to_json_dict(),
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--arm", choices=ARMS, required=True)
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0])
+    parser.add_argument("--steps", type=int, nargs="+", default=[800, 1600, 3200, 6400, 8000])
+    parser.add_argument("--profile", default="laptop", help="the sizes of the models and evaluations (default: laptop)")
+    parser.add_argument("--out", type=Path, default=OUT)
+    args = parser.parse_args(argv)
+    if any(s < 1 for s in args.steps) or any(s < 0 for s in args.seeds):
+        parser.error("--steps must be >= 1 and --seeds >= 0")
+    torch.set_num_threads(1)  # one process per arm on a shared machine
+    args.out.mkdir(parents=True, exist_ok=True)
+    for steps in args.steps:
+        for seed in args.seeds:
+            name = model_name(args.arm, seed, steps)
+            path = args.out / f"{name.removeprefix('t2m/')}.json"
+            if path.exists():
+                print(f"{name}: recorded already ({path})", file=sys.stderr)
+                continue
+            print(f"{name}: training (or loading) and scoring", file=sys.stderr)
+            result = score(name, args.profile)
+            record = {
+                "model": name,
+                "arm": args.arm,
+                "training_seed": seed,
+                "steps": steps,
+                "profile": args.profile,
+                "cpu": read_cpu_info().summary,
+                "machine": platform.machine(),
+                "precision": resolve_precision(),
+                "torch_threads": torch.get_num_threads(),
+                "commit": _commit(),
+                **result,
+            }
+            write_text_atomic(path, json.dumps(record, indent=1) + "\n")
+            print(f"{name}: wrote {path}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
