@@ -241,3 +241,43 @@ def test_a_budget_name_is_the_arm_s_model_trained_for_that_many_steps(monkeypatc
     assert longer["config"].transformer == replace(own.transformer, train_steps=8000)
     with pytest.raises(ValueError, match="at least 1 step"):
         models.load("t2m/dynamic-steps0", "data", "laptop")
+
+
+def test_a_seeded_chain_trains_its_tokenizer_and_decoder_with_that_seed(monkeypatch):
+    verbs = _Verbs(monkeypatch)
+    calls = verbs.of(lambda: models.load("discord/rvq-seed2", "ds", "smoke"))
+    (tok_name, tok), (flow_name, flow) = calls
+    assert (tok_name, tok["kind"], tok["seed"]) == ("tokenizer_for_dataset", "rvq", 2)
+    assert flow_name == "train_or_load_discord" and flow["config"].seed == 2
+    assert flow["tokenizer"] is verbs.tokenizers["rvq"]
+    (_, tok), *_ = verbs.of(lambda: models.load("tokenizer/vq-seed3", "ds", "smoke"))
+    assert (tok["kind"], tok["seed"]) == ("vq", 3)
+    # seed 0 of the chain is the book's pair, on the cache entries it always had
+    assert verbs.of(lambda: models.load("discord/rvq-seed0", "ds", "smoke")) == verbs.of(
+        lambda: models.load("discord/rvq", "ds", "smoke")
+    )
+    assert verbs.of(lambda: models.load("tokenizer/rvq-seed0", "ds", "smoke")) == verbs.of(
+        lambda: models.load("tokenizer/rvq", "ds", "smoke")
+    )
+    with pytest.raises(ValueError, match="names its training seed"):
+        models.load("discord/rvq-seed1", "ds", "smoke", seed=4)
+    with pytest.raises(ValueError, match="unknown DisCoRD decoder 'discord/rvq-seed1-stacked'"):
+        models.load("discord/rvq-seed1-stacked", "ds", "smoke")
+
+
+def test_tokenizer_seed_changes_weights_codebook_and_batch_order_only(monkeypatch):
+    from motionlab import tokenizers
+
+    seen = []
+    monkeypatch.setattr(tokenizers.training, "train_or_load_tokenizer", lambda *a, config, **kw: seen.append(config))
+    dataset = SimpleNamespace(
+        kind=SimpleNamespace(feature_dim=263), skeleton=SimpleNamespace(n_joints=22), key="k", normalized=None
+    )
+    for seed in (0, 5):
+        tokenizers.tokenizer_for_dataset("rvq", dataset, "smoke", seed=seed)
+    book, other = seen
+    assert book == tokenizers.rvq_config("smoke", feature_dim=263, n_joints=22)  # seed 0: the book's cache key
+    assert (other.seed, other.train.seed) == (5, 5)
+    assert replace(other, seed=0, train=replace(other.train, seed=0)) == book
+    with pytest.raises(ValueError, match="seed must be an integer >= 0"):
+        tokenizers.tokenizer_for_dataset("rvq", dataset, "smoke", seed=-1)

@@ -574,6 +574,13 @@ def _add_evaluate(sub) -> None:
         help="zero-pad every clip to this many frames before tokenising it, as the released evaluation does "
         "(default: 196 with released checkpoints, none with the book's)",
     )
+    rec.add_argument(
+        "--training-seed",
+        type=int,
+        default=None,
+        help="K: the book's tokenizer and DisCoRD decoder trained with seed K, a replicate of the chain (default: 0, "
+        "the book's; another seed trains on first use)",
+    )
     rec.add_argument("--limit", type=int, default=None, help="score only the first K clips of the split")
     _add_flow_training_options(rec)
     rec.add_argument(

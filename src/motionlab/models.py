@@ -13,9 +13,12 @@ plan trained share one cache entry by construction::
 name                            model
 ==============================  ==================================================================================
 ``tokenizer/vq``, ``/rvq``      the motion VQ-VAE and the residual VQ-VAE (chapter 02)
+``tokenizer/<kind>-seed<k>``    that tokenizer trained with seed ``k`` (the training-seed study; seed 0 is the book's)
 ``toy_flow/ring[-conditional]`` chapter 03's 2-D velocity field (``dataset`` is not used)
 ``discord/rvq``, ``/vq``        the profile's DisCoRD decoder on that tokenizer's ids (chapters 05, 09)
 ``discord/rvq-<projection>``    chapter 04's ablation decoders: ``stacked``, ``repeat``, ``transposed``
+``discord/<kind>-seed<k>``      the decoder trained with seed ``k`` on ``tokenizer/<kind>-seed<k>``: a replicate of
+                                the whole chain (the training-seed study, ``experiments/training_seeds.py``)
 ``t2m/dynamic``, ``/uniform``   the text-to-motion models with dynamic (paper η) and uniform (η = 0) transitions
 ``t2m/multi-eta0.25``           the dynamic model at M2D2M's multi-motion η
 ``t2m/<arm>-seed<k>``           a training-seed replicate of ``dynamic`` or ``uniform`` (chapter 08)
@@ -38,24 +41,31 @@ from motionlab.profiles import get_profile
 PROJECTIONS = ("stacked", "repeat", "transposed")
 DISTANCES = ("l2", "cosine", "cosine_rank")
 _T2M = re.compile(r"^t2m/(dynamic|uniform)(?:-seed(\d+))?(?:-steps(\d+))?$")
+_SEEDED = re.compile(r"^(vq|rvq)(?:-seed(\d+))?$")  # a tokenizer kind, or a replicate of its training chain
 
 
-def _tokenizer(kind: str, dataset, profile: str, device):
+def _tokenizer(kind: str, dataset, profile: str, device, seed: int = 0):
     from motionlab.tokenizers import tokenizer_for_dataset
 
-    return tokenizer_for_dataset(kind, dataset, profile, device=device)
+    return tokenizer_for_dataset(kind, dataset, profile, seed=seed, device=device)
 
 
 def _discord(variant: str, dataset, profile: str, seed: int, device, overrides: dict[str, Any]):
     from motionlab.flow import discord_config, train_or_load_discord
 
+    chain = _SEEDED.match(variant)
     tokens, _, projection = variant.partition("-")
-    if tokens not in ("vq", "rvq") or (projection and (tokens != "rvq" or projection not in PROJECTIONS)):
+    if chain is None and (tokens != "rvq" or projection not in PROJECTIONS):
         raise ValueError(
-            f"unknown DisCoRD decoder 'discord/{variant}'; use discord/rvq, discord/vq or "
+            f"unknown DisCoRD decoder 'discord/{variant}'; use discord/rvq, discord/vq, discord/<kind>-seed<k> or "
             f"discord/rvq-{{{','.join(PROJECTIONS)}}}"
         )
-    tokenizer = _tokenizer(tokens, dataset, profile, device)
+    chain_seed = int(chain.group(2) or 0) if chain else 0
+    if chain_seed and seed:
+        raise ValueError(f"'discord/{variant}' names its training seed; do not pass seed={seed} as well")
+    if chain:
+        tokens, projection, seed = chain.group(1), "", chain_seed or seed
+    tokenizer = _tokenizer(tokens, dataset, profile, device, chain_seed)
     if projection:
         from motionlab.build.book_models import projection_config
 
@@ -146,9 +156,9 @@ def load(
     if kind == "data":
         return dataset
     if kind == "tokenizer":
-        if variant not in ("vq", "rvq"):
-            raise ValueError(f"unknown tokenizer {name!r}; use tokenizer/vq or tokenizer/rvq")
-        return _tokenizer(variant, dataset, profile, device)
+        if (chain := _SEEDED.match(variant)) is None:
+            raise ValueError(f"unknown tokenizer {name!r}; use tokenizer/vq, tokenizer/rvq or tokenizer/<kind>-seed<k>")
+        return _tokenizer(chain.group(1), dataset, profile, device, int(chain.group(2) or 0))
     if kind == "discord":
         return _discord(variant, dataset, profile, seed, device, overrides)
     if kind == "t2m":

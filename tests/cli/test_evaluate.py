@@ -326,3 +326,40 @@ def test_configs_validate_and_name_their_tokens():
         evaluate_multi(object(), MultiMotionConfig())
     with pytest.raises(ValueError, match="mm_repeats must be an int >= 10"):
         TextToMotionConfig(mm_repeats=5)
+
+
+def test_reconstruction_training_seed_names_the_replicate_chain():
+    from motionlab.evaluation import ReconstructionConfig
+
+    config = ReconstructionConfig(training_seed=2)
+    assert config.book_models() == ["tokenizer/rvq-seed2", "evaluator", "discord/rvq-seed2"]
+    assert ReconstructionConfig(decoder="vq", training_seed=1).book_models() == ["tokenizer/vq-seed1", "evaluator"]
+    assert ReconstructionConfig().book_models() == ["tokenizer/rvq", "evaluator", "discord/rvq"]
+    assert "--training-seed 2" in config.command_line("smoke")
+    assert "--training-seed" not in ReconstructionConfig().command_line("smoke")
+    with pytest.raises(ValueError, match="training_seed"):
+        ReconstructionConfig(training_seed=-1)
+    with pytest.raises(ValueError, match="released checkpoints have one"):
+        ReconstructionConfig(decoder="feed-forward", tokenizer="momask:/nowhere", training_seed=1)
+
+
+def test_claim_cells_name_the_cells_the_claims_judge():
+    from motionlab.estimate import Estimate
+    from motionlab.evaluation import EvaluationTable, ReconstructionConfig, claim_cells
+    from motionlab.evaluation.reconstruction import GROUND_TRUTH
+
+    config = ReconstructionConfig(grid=(("midpoint", 1), ("midpoint", 15), ("euler", 2)))
+    two, sixteen = config.grid_row("midpoint", 1), config.grid_row("midpoint", 15)
+    cell = {m: Estimate(1.0) for m in ("fid", "sjpe", "noise_sjpe", "static_sjpe", "mpjpe_mm", "seconds")}
+    rows = {"RVQ-VAE": cell, "DisCoRD": cell, two: cell, sixteen: cell, GROUND_TRUTH: {"joint_jerk": Estimate(9.0)}}
+    table = EvaluationTable("reconstruction", "smoke", "d", "test", 1, 0, {}, {"clips": 2}, tuple(cell), rows)
+    cells = claim_cells(table, config)
+    assert cells["sjpe_rf"] == ("DisCoRD", "sjpe") and cells["sjpe_ff"] == ("RVQ-VAE", "sjpe")
+    assert cells["mpjpe_rf"] == ("DisCoRD", "mpjpe_mm") and cells["time_ff"] == ("RVQ-VAE", "seconds")
+    assert cells["fid_steps2"] == (two, "fid") and cells["time_steps16"] == (sixteen, "seconds")
+    assert cells["joint_jerk_gt"] == (GROUND_TRUTH, "joint_jerk")
+    assert "joint_jerk_rf" not in cells  # no such column in this table
+    no_grid = claim_cells(table, ReconstructionConfig())
+    assert "fid_steps2" not in no_grid and no_grid["fid_rf"] == ("DisCoRD", "fid")
+    with pytest.raises(ValueError, match="decoder='discord'"):
+        claim_cells(table, ReconstructionConfig(decoder="vq"))

@@ -39,7 +39,7 @@ from .common import (
     repeat_seed,
 )
 from .multi import MultiMotionConfig, evaluate_multi
-from .reconstruction import ReconstructionConfig, evaluate_reconstruction
+from .reconstruction import ReconstructionConfig, claim_cells, evaluate_reconstruction
 from .t2m import TextToMotionConfig, evaluate_t2m
 from .table import (
     METRIC_LABELS,
@@ -58,6 +58,7 @@ EVALUATORS = {"reconstruction": evaluate_reconstruction, "t2m": evaluate_t2m, "m
 CONFIGS = {"reconstruction": ReconstructionConfig, "t2m": TextToMotionConfig, "multi": MultiMotionConfig}
 
 __all__ = [
+    "claim_cells",
     "CLI_OPTIONS",
     "CONFIGS",
     "EVALUATORS",

@@ -121,6 +121,7 @@ CLI_OPTIONS: dict[str, dict[str, Option]] = {
     "reconstruction": {
         **_SHARED_OPTIONS,
         "tokenizer": Option("--tokenizer"),
+        "training_seed": Option("--training-seed"),
         "limit": Option("--limit"),
         "prediction": Option("--predict"),
         "normalization": Option("--normalization"),

@@ -60,6 +60,10 @@ class ReconstructionConfig:
     ``time_distribution`` choose (and train on first use) a book decoder other than the profile's;
     ``temperature``/``spacing``/``final_prediction`` change only how it samples.
 
+    ``training_seed``: 0, the book's tokenizer and DisCoRD decoder; ``k``, the replicate of that chain trained with
+    seed ``k`` (``tokenizer/<kind>-seed<k>`` and ``discord/<kind>-seed<k>``, :mod:`motionlab.models`), as the
+    training-seed study (``experiments/training_seeds.py``) evaluates them.
+
     ``evaluator``: None (the book's, trained on ``dataset``) or ``"official:FOLDER"``, the released T2M evaluator
     (:func:`motionlab.metrics.load_official_evaluator`; ``glove`` its GloVe folder, default FOLDER). ``window``:
     zero-pad every clip to this many frames before it is tokenised, as the released evaluation scripts do (None:
@@ -87,6 +91,7 @@ class ReconstructionConfig:
     temperature: float | None = None  # start-noise scale
     spacing: str | None = None  # "uniform" | "data_dense"
     final_prediction: bool | None = None  # x-prediction: return x̂1 at the last step
+    training_seed: int = 0  # the book's tokenizer and decoder (0) or a replicate of that chain
     split: str = "test"
     limit: int | None = None  # the first `limit` clips of the split
     repeats: int = 1
@@ -156,6 +161,9 @@ class ReconstructionConfig:
             )
         if self.released_decoder and released_tokens and "," in self.decoder:
             raise ValueError("name the tokenizer once: tokenizer= or the ',TOKENIZER' part of 'discord:FOLDER,...'")
+        _check_int("training_seed", self.training_seed, 0)
+        if self.training_seed and self.released:
+            raise ValueError("training_seed picks a replicate of the book's models; released checkpoints have one")
         if self.evaluator is not None and not (self.evaluator.startswith("official:") and self.evaluator[9:]):
             raise ValueError(f"evaluator must be None (the book's) or 'official:FOLDER', got {self.evaluator!r}")
         if self.glove is not None and self.evaluator is None:
@@ -180,9 +188,10 @@ class ReconstructionConfig:
 
     def book_models(self) -> list[str]:
         """The book's models (:func:`motionlab.models.load` names) this evaluation loads, or trains on first use."""
-        names = [] if self.released else [f"tokenizer/{self.tokenizer_kind}"]
+        chain = self.tokenizer_kind + (f"-seed{self.training_seed}" if self.training_seed else "")
+        names = [] if self.released else [f"tokenizer/{chain}"]
         names += ["evaluator"] if self.evaluator is None else []
-        return names + ([f"discord/{self.tokenizer_kind}"] if self.decoder == "discord" else [])
+        return names + ([f"discord/{chain}"] if self.decoder == "discord" else [])
 
     @classmethod
     def from_sizes(cls, sizes: Any, **options: Any) -> ReconstructionConfig:
@@ -411,6 +420,42 @@ def evaluate_reconstruction(
     return table
 
 
+# the claims' names of Table 1's metrics (``discord/<name>_rf``, ``discord/<name>_ff``) and their units
+CLAIM_METRICS = {
+    "fid": "fid",
+    "mpjpe": "mpjpe_mm",
+    "sjpe": "sjpe",
+    "noise_sjpe": "noise_sjpe",
+    "static_sjpe": "static_sjpe",
+    "joint_jerk": "joint_jerk",
+    "noise_sjpe_boundary_share": "noise_sjpe_boundary_share",
+}
+CLAIM_UNITS = {"mpjpe_mm": "mm", "joint_jerk": "m/s³", "seconds": "s"}
+
+
+def claim_cells(table, cfg: ReconstructionConfig) -> dict[str, tuple[str, str]]:
+    """Which cell of a reconstruction table each of DisCoRD's claim numbers is: ``{key: (row, metric)}``.
+
+    The keys are the ``discord/<key>`` results the claims table judges: Table 1's metrics of the DisCoRD decoder
+    (``_rf``) and the feed-forward decoder (``_ff``), and, where ``cfg`` has the paper's 2 and 16 midpoint grid
+    points (1 and 15 intervals) in its grid, their FID, sJPE, Noise sJPE and time (``_steps2``, ``_steps16``).
+    Cells the table lacks (no ``jerk`` or ``token_phases`` columns, no timing) are left out.
+    """
+    if not cfg.uses_flow:
+        raise ValueError("the claims compare the DisCoRD decoder with the feed-forward one: decoder='discord'")
+    ff_row, rf_row = list(table.rows)[:2]  # the feed-forward decoder, then DisCoRD at its own steps
+    cells = {
+        f"{key}_{who}": (row, m) for key, m in CLAIM_METRICS.items() for who, row in (("rf", rf_row), ("ff", ff_row))
+    }
+    cells |= {"joint_jerk_gt": (GROUND_TRUTH, "joint_jerk"), "time_ff": (ff_row, "seconds")}
+    for n, intervals in ((2, 1), (16, 15)):  # the paper's steps are midpoint grid points: 2 steps = 1 interval
+        if ("midpoint", intervals) in cfg.grid:
+            row = cfg.grid_row("midpoint", intervals)
+            cells |= {f"{key}_steps{n}": (row, key if key != "time" else "seconds") for key in ("fid", "sjpe", "time")}
+            cells |= {f"noise_sjpe_steps{n}": (row, "noise_sjpe")}
+    return {key: (row, m) for key, (row, m) in cells.items() if m in table.rows.get(row, {})}
+
+
 def _announce(text: str, progress: bool) -> None:
     """A line the reader must see before the work starts: a phase line, and on a terminal above the bars."""
     import sys
@@ -491,7 +536,8 @@ def _load_models(cfg: ReconstructionConfig, dataset, profile: str, device, progr
         _phase(
             f"reconstruction: {clips} {cfg.split} clips; loading (or training) the {kind} tokenizer, {evaluator_name}"
         )
-        tokenizer = tokenizer_for_dataset(kind, dataset, profile, device=device, progress=progress)
+        seed = cfg.training_seed
+        tokenizer = tokenizer_for_dataset(kind, dataset, profile, seed=seed, device=device, progress=progress)
         tokens = "VQ-VAE" if kind == "vq" else "RVQ-VAE"
         models = _Models(tokenizer, dataset.normalizer, None, tokens)
         if cfg.decoder == "discord":
@@ -518,7 +564,7 @@ def _book_decoder(cfg: ReconstructionConfig, dataset, tokenizer, profile: str, d
 
     chosen = {name: getattr(cfg, name) for name in FLOW_OPTIONS if getattr(cfg, name) is not None}
     training = {k: v for k, v in chosen.items() if k in FLOW_TRAINING_OPTIONS}
-    flow_config = discord_config(profile, tokenizer=tokenizer, **training)
+    flow_config = discord_config(profile, tokenizer=tokenizer, seed=cfg.training_seed, **training)
     _phase("loading (or training) the DisCoRD decoder")
     flow = train_or_load_discord(dataset, tokenizer, profile, config=flow_config, device=device, progress=progress)
     sampling = {k: v for k, v in chosen.items() if k in FLOW_SAMPLING_OPTIONS}

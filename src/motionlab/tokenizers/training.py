@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -144,17 +145,28 @@ def load_tokenizer(
 
 
 def tokenizer_for_dataset(
-    kind: str, dataset, profile: str | None = None, *, device: str | None = None, progress: bool = True
+    kind: str,
+    dataset,
+    profile: str | None = None,
+    *,
+    seed: int = 0,
+    device: str | None = None,
+    progress: bool = True,
 ) -> VQVAE | RVQVAE:
     """The book's standard ``"vq"``/``"rvq"`` tokenizer of a :class:`~motionlab.data.MotionDataset`.
 
     Trained on first use on the normalised train split (validated on val) with the profile's config sized
     to the dataset's features (263 for HumanML3D, 251 for KIT-ML), cached under the dataset's key: every
-    chapter and the command line that asks for it gets the same model.
+    chapter and the command line that asks for it gets the same model. ``seed`` is the training seed (weights,
+    codebook draws and batch order): seed 0 is the book's tokenizer, another seed a replicate (another cache entry).
     """
     if kind not in KINDS:
         raise ValueError(f"kind must be one of {sorted(KINDS)}, got {kind!r}")
-    config = KINDS[kind](profile, feature_dim=dataset.kind.feature_dim, n_joints=dataset.skeleton.n_joints)
+    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
+        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    features = {"feature_dim": dataset.kind.feature_dim, "n_joints": dataset.skeleton.n_joints}
+    config = KINDS[kind](profile, **features)
+    config = replace(config, seed=seed, train=replace(config.train, seed=seed))
     return train_or_load_tokenizer(
         kind,
         lambda: dataset.normalized("train"),
