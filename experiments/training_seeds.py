@@ -58,6 +58,7 @@ def score(training_seed: int, profile: str) -> dict:
     table = evaluate_reconstruction(dataset, config, profile)
     values = {key: table.estimate(row, metric).mean for key, (row, metric) in claim_cells(table, config).items()}
     return {
+        "data": dataset.key,
         "training": training,
         "models": config.book_models(),
         "command": config.command_line(profile),

@@ -24,8 +24,10 @@ from motionlab.report.render import (
     claims_table,
     count_sentence,
     judge,
+    spread_table,
 )
 from motionlab.report.rules import AtMost, Between, Claim, Evidence, Greater, Increasing, Less, Rule, Within
+from motionlab.report.spread import TrainingSpread, load_spread
 from motionlab.report.store import (
     CHAPTERS,
     FAILS,
@@ -67,6 +69,7 @@ __all__ = [
     "Less",
     "Result",
     "Rule",
+    "TrainingSpread",
     "Within",
     "chapter_findings",
     "claim_keys",
@@ -76,7 +79,9 @@ __all__ = [
     "paper_results",
     "judge",
     "load_all",
+    "load_spread",
     "quantity",
     "record",
     "results_dir",
+    "spread_table",
 ]

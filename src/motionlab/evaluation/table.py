@@ -151,8 +151,18 @@ class EvaluationTable:
         fixed = tuple(dict.fromkeys([*self.deterministic, *deterministic]))
         return replace(self, rows=merged, metrics=tuple(dict.fromkeys(metrics)), deterministic=fixed)
 
-    def compare(self, row_a: str, row_b: str, metric: str, name_a: str | None = None, name_b: str | None = None):
-        """``row_a`` against ``row_b`` on ``metric`` by the one rule (:func:`motionlab.report.compare`)."""
+    def compare(
+        self,
+        row_a: str,
+        row_b: str,
+        metric: str,
+        name_a: str | None = None,
+        name_b: str | None = None,
+        *,
+        training: Estimate | None = None,
+    ):
+        """``row_a`` against ``row_b`` on ``metric`` by the one rule (:func:`motionlab.report.compare`); ``training``:
+        how far retraining moves the difference, where measured (:meth:`motionlab.report.TrainingSpread.difference`)."""
         from motionlab.report import compare
 
         quantity = metric_label(metric).rstrip(" ↓↑→")
@@ -162,6 +172,7 @@ class EvaluationTable:
             name_a or row_a,
             name_b or row_b,
             quantity=quantity,
+            training=training,
         )
 
     def record(self, chapter: str, keys: Mapping[str, tuple[str, str]], note: str | None = None) -> list:

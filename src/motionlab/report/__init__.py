@@ -8,9 +8,11 @@ One rule judges every comparison in the library and the book, :meth:`~motionlab.
     # sJPE: DisCoRD 1.38 ± 0.02 is lower than feed-forward 1.45 ± 0.03
 
 The claims table (:mod:`motionlab.results`) judges its orderings with the same :class:`Comparison`, so a chapter's
-sentence and the verdict box at the top of its page cannot disagree.
+sentence and the verdict box at the top of its page cannot disagree. Where the training-seed study measured how far
+retraining moves a difference (:func:`load_spread`), that spread joins the interval: ``compare(..., training=...)``.
 """
 
 from .phrases import Comparison, Sentence, compare, difference, trend
+from .spread import TrainingSpread, load_spread
 
-__all__ = ["Comparison", "Sentence", "compare", "difference", "trend"]
+__all__ = ["Comparison", "Sentence", "TrainingSpread", "compare", "difference", "load_spread", "trend"]

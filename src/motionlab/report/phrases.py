@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from motionlab.estimate import Estimate
+from motionlab.estimate import Estimate, format_estimate
 
 LOWER, HIGHER, SAME = "lower", "higher", "not distinguishable"
 HOLDS, FAILS, INCONCLUSIVE = "holds", "does not hold", "inconclusive"  # the claims table's verdicts
@@ -32,6 +33,10 @@ class Comparison:
 
     ``verdict`` is ``"lower"``, ``"higher"`` or ``"not distinguishable"``; :meth:`say` turns it into a sentence and
     appends the caller's reading of each outcome.
+
+    ``training``, where measured, is how far ``a − b`` moves between training runs of the models behind the two
+    numbers (:meth:`motionlab.report.spread.TrainingSpread.difference`): its half-width joins the interval of the
+    difference, so a gap that retraining alone produces is not read as an effect.
     """
 
     a: Estimate
@@ -39,15 +44,21 @@ class Comparison:
     names: tuple[str, str] = ("a", "b")
     quantity: str = ""
     against_zero: bool = False  # a measured difference (a) against 0 (b): see difference()
+    training: Estimate | None = None  # a − b between training runs: the spread one run's difference carries
 
     @property
     def has_interval(self) -> bool:
-        return self.a.half_width > 0 or self.b.half_width > 0
+        return self.a.half_width > 0 or self.b.half_width > 0 or self._training_half > 0
+
+    @property
+    def _training_half(self) -> float:
+        return 0.0 if self.training is None else self.training.half_width
 
     @property
     def apart(self) -> bool:
-        """The one rule: the 95% interval of the difference excludes 0."""
-        return self.a.apart_from(self.b)
+        """The one rule: the 95% interval of the difference excludes 0 (with the training runs' spread in it)."""
+        b = Estimate(self.b.mean, math.hypot(self.b.half_width, self._training_half), self.b.n, self.b.unit)
+        return self.a.apart_from(b)
 
     @property
     def direction(self) -> str:
@@ -72,9 +83,13 @@ class Comparison:
         if self.against_zero:
             where = {LOWER: "below 0", HIGHER: "above 0", SAME: "not distinguishable from 0 at 95%"}[self.verdict]
             return f"{prefix}{name_a} = {self.a}, {where}"
+        retrained = ""
+        if self.training is not None:
+            spread = format_estimate(self._training_half, unit=self.a.unit, significant=2)
+            retrained = f" (retraining moves the difference by ± {spread} over {self.training.n} training seeds)"
         if self.verdict == SAME:
-            return f"{prefix}{name_a} {self.a} and {name_b} {self.b} are not distinguishable at 95%"
-        return f"{prefix}{name_a} {self.a} is {self.verdict} than {name_b} {self.b}"
+            return f"{prefix}{name_a} {self.a} and {name_b} {self.b} are not distinguishable at 95%{retrained}"
+        return f"{prefix}{name_a} {self.a} is {self.verdict} than {name_b} {self.b}{retrained}"
 
     def say(self, lower: str = "", higher: str = "", same: str = "") -> Sentence:
         """The comparison as a sentence, followed by the caller's reading of the outcome that happened
@@ -87,10 +102,19 @@ class Comparison:
 
 
 def compare(
-    a: Estimate | float, b: Estimate | float, name_a: str = "a", name_b: str = "b", *, quantity: str = ""
+    a: Estimate | float,
+    b: Estimate | float,
+    name_a: str = "a",
+    name_b: str = "b",
+    *,
+    quantity: str = "",
+    training: Estimate | None = None,
 ) -> Comparison:
-    """Compare two independent estimates (or plain numbers, which carry no interval) by the one rule."""
-    return Comparison(_estimate(a, "a"), _estimate(b, "b"), (name_a, name_b), quantity)
+    """Compare two independent estimates (or plain numbers, which carry no interval) by the one rule; ``training``:
+    the spread of ``a − b`` between training runs, where it was measured (see :class:`Comparison`)."""
+    if training is not None and not isinstance(training, Estimate):
+        raise TypeError(f"training must be an Estimate (a − b across training runs), got {type(training).__name__}")
+    return Comparison(_estimate(a, "a"), _estimate(b, "b"), (name_a, name_b), quantity, training=training)
 
 
 def difference(d: Estimate, name: str = "the difference", *, quantity: str = "") -> Comparison:

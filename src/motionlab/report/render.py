@@ -3,13 +3,18 @@
 from __future__ import annotations
 
 import html
+import math
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 
+from motionlab.estimate import format_estimate, format_number
 from motionlab.profiles import get_profile
+from motionlab.viz.tables import Table
 
 from .claims import CLAIMS, FINDINGS
-from .rules import Claim
+from .quantities import quantity
+from .rules import Claim, training_difference
+from .spread import TrainingSpread, load_spread
 from .store import CHAPTERS, FAILS, HOLDS, INCONCLUSIVE, MISSING, VERDICTS, Result, load_all
 
 # ----------------------------------------------------------------------------------------------
@@ -135,11 +140,58 @@ class ClaimsTable:
         return "\n".join(out)
 
 
-def judge(claim: Claim, recorded: Mapping[str, Result]) -> ClaimRow:
-    """One row: the claim, our numbers for its keys (a phrase with units and intervals), and the verdict."""
+RECORDED = "recorded"  # the spread argument's default: the training-seed study recorded for the profile, if any
+
+
+def _spread(spread: TrainingSpread | str | None, profile: str) -> TrainingSpread | None:
+    if spread == RECORDED:
+        return load_spread(profile)
+    if spread is not None and not isinstance(spread, TrainingSpread):
+        raise TypeError(f"spread must be a TrainingSpread, None or {RECORDED!r}, got {type(spread).__name__}")
+    return spread
+
+
+def retraining_phrase(rule, recorded: Mapping[str, Result], spread: TrainingSpread | None) -> str:
+    """How far retraining moves each difference the rule judges (``""`` where no spread applies)."""
+    parts = []
+    for a, b in getattr(rule, "pairs", ()):
+        if a in recorded and b in recorded and (d := training_difference(recorded[a], recorded[b], spread)):
+            unit = recorded[a].unit
+            parts.append(f"± {format_estimate(d.half_width, unit=unit, significant=2)} over {d.n} training seeds")
+    return f"; retraining moves the difference by {', '.join(parts)}" if parts else ""
+
+
+def spread_table(spread: TrainingSpread, claims: Sequence[Claim] = CLAIMS) -> Table:
+    """Every comparison of ``claims`` the training-seed study measured: ``a − b`` on each seed, and the spread of one
+    training run's difference that joins the verdict's interval (a :class:`~motionlab.viz.tables.Table`)."""
+    rows: dict[str, dict] = {}
+    for claim in claims:
+        for a, b in getattr(claim.rule, "pairs", ()):
+            difference = spread.difference(a, b)
+            if difference is None:
+                continue
+            seeds, half = spread.seeds(a, b), difference.half_width
+            decimals = max(0, 1 - math.floor(math.log10(half))) if half > 0 else None  # two digits of the spread
+            per_seed = ", ".join(format_number(spread.values[a][s] - spread.values[b][s], decimals) for s in seeds)
+            (name, condition_a), (_, condition_b) = quantity(a), quantity(b)
+            label = f"{claim.statement} ({name}: {condition_a} − {condition_b})"
+            rows[label] = {"training seeds": len(seeds), "a − b on each seed": per_seed}
+            rows[label]["± one run (t · sd)"] = format_number(half, decimals)
+    if not rows:
+        raise ValueError("the training-seed study measured none of these claims' comparisons")
+    return Table("claim (a − b)", rows, notes=(f"measured on {spread.data}: " + "; ".join(spread.measured),))
+
+
+def judge(claim: Claim, recorded: Mapping[str, Result], spread: TrainingSpread | None = None) -> ClaimRow:
+    """One row: the claim, our numbers for its keys (a phrase with units and intervals), and the verdict.
+
+    ``spread``: the training-seed study's (:mod:`motionlab.report.spread`); where it measured a comparison's keys,
+    its between-run spread joins the verdict's interval and the phrase says how large it is.
+    """
     missing = tuple(k for k in claim.keys if k not in recorded)
-    verdict = MISSING if missing else claim.rule.judge(recorded)
+    verdict = MISSING if missing else claim.rule.judge(recorded, spread)
     mechanism = "\n".join(e.format(recorded) for e in claim.mechanism)
+    ours = claim.rule.sentence(recorded) + ("" if missing else retraining_phrase(claim.rule, recorded, spread))
     return ClaimRow(
         claim.paper,
         claim.source,
@@ -147,7 +199,7 @@ def judge(claim: Claim, recorded: Mapping[str, Result]) -> ClaimRow:
         claim.paper_value,
         claim.rule.describe(),
         claim.chapter,
-        claim.rule.sentence(recorded),
+        ours,
         verdict,
         missing,
         mechanism,
@@ -155,12 +207,17 @@ def judge(claim: Claim, recorded: Mapping[str, Result]) -> ClaimRow:
 
 
 def claims_table(
-    profile: str | None = None, recorded: Mapping[str, Result] | None = None, claims: Sequence[Claim] = CLAIMS
+    profile: str | None = None,
+    recorded: Mapping[str, Result] | None = None,
+    claims: Sequence[Claim] = CLAIMS,
+    spread: TrainingSpread | str | None = RECORDED,
 ) -> ClaimsTable:
-    """Judge every claim on the results recorded for ``profile`` (or on ``recorded`` if given)."""
+    """Judge every claim on the results recorded for ``profile`` (or on ``recorded`` if given), with the training-seed
+    spread recorded for the profile (``spread=None``: on the measurements' intervals alone)."""
     profile = get_profile(profile)
     recorded = load_all(profile) if recorded is None else recorded
-    return ClaimsTable([judge(c, recorded) for c in claims], profile)
+    spread = _spread(spread, profile)
+    return ClaimsTable([judge(c, recorded, spread) for c in claims], profile)
 
 
 @dataclass(frozen=True)
@@ -215,19 +272,26 @@ class ChapterFindings:
 
 
 def chapter_findings(
-    chapter: str, profile: str | None = None, recorded: Mapping[str, Result] | None = None
+    chapter: str,
+    profile: str | None = None,
+    recorded: Mapping[str, Result] | None = None,
+    spread: TrainingSpread | str | None = RECORDED,
 ) -> ChapterFindings:
-    """The papers' claims judged on keys of ``chapter`` (a prefix such as ``"discord"``), then its own findings."""
+    """The papers' claims judged on keys of ``chapter`` (a prefix such as ``"discord"``), then its own findings,
+    each judged as :func:`claims_table` judges it."""
     if chapter not in CHAPTERS:
         raise ValueError(f"unknown chapter prefix {chapter!r}; one of {sorted(CHAPTERS)}")
     profile = get_profile(profile)
     recorded = load_all(profile) if recorded is None else recorded
+    spread = _spread(spread, profile)
     rows = []
     for claim in CLAIMS:
         if claim.keys[0].split("/", 1)[0] == chapter:
-            row = judge(claim, recorded)
+            row = judge(claim, recorded, spread)
             rows.append(FindingRow(row.verdict, claim.statement, row.ours, f"{claim.paper}, {claim.source}"))
     for finding in FINDINGS.get(chapter, ()):
-        verdict = MISSING if any(k not in recorded for k in finding.keys) else finding.rule.judge(recorded)
-        rows.append(FindingRow(verdict, finding.statement, finding.rule.sentence(recorded), ""))
+        missing = any(k not in recorded for k in finding.keys)
+        verdict = MISSING if missing else finding.rule.judge(recorded, spread)
+        ours = finding.rule.sentence(recorded) + ("" if missing else retraining_phrase(finding.rule, recorded, spread))
+        rows.append(FindingRow(verdict, finding.statement, ours, ""))
     return ChapterFindings(chapter, profile, rows)

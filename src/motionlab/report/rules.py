@@ -5,9 +5,10 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
-from motionlab.estimate import format_estimate
+from motionlab.estimate import Estimate, format_estimate
 
 from .quantities import quantity
+from .spread import TrainingSpread
 from .store import CHAPTERS, FAILS, HOLDS, INCONCLUSIVE, Result
 
 
@@ -54,10 +55,19 @@ def describe_values(
 # Rules: how one claim is judged from recorded results
 
 
-def _compare(a: Result, b: Result, expected: str) -> str:
+def training_difference(a: Result, b: Result, spread: TrainingSpread | None) -> Estimate | None:
+    """How far ``a − b`` moves between training runs, where the training-seed study measured both keys on the data
+    the two results were measured on (else None: the verdict rests on the measurement's interval alone)."""
+    if spread is None or not (spread.applies_to(a.note) and spread.applies_to(b.note)):
+        return None
+    return spread.difference(a.name, b.name)
+
+
+def _compare(a: Result, b: Result, expected: str, spread: TrainingSpread | None = None) -> str:
     """Verdict of the expectation that ``a`` is ``"lower"`` (or ``"higher"``) than ``b``, by the one rule
     (:meth:`motionlab.report.Comparison.judge`): "inconclusive" when a side carries an interval and the 95% interval
-    of the difference, half-width ``sqrt(h_a² + h_b²)`` for independent estimates, contains 0.
+    of the difference, half-width ``sqrt(h_a² + h_b²)`` for independent estimates (``+ h_t²``, the spread between
+    training runs, where ``spread`` measured it: :mod:`motionlab.report.spread`), contains 0.
 
     Not "when their intervals overlap": two 95% intervals can overlap while the difference is clear (for equal
     widths the overlap test works at about the 99.5% level, not 95%). Where both were measured on the same samples,
@@ -65,7 +75,7 @@ def _compare(a: Result, b: Result, expected: str) -> str:
     """
     from motionlab.report import compare
 
-    return compare(a.estimate, b.estimate).judge(expected)
+    return compare(a.estimate, b.estimate, training=training_difference(a, b, spread)).judge(expected)
 
 
 def _combine(verdicts: Sequence[str]) -> str:
@@ -87,8 +97,13 @@ class Less:
     def keys(self) -> tuple[str, ...]:
         return (self.a, self.b)
 
-    def judge(self, r: Mapping[str, Result]) -> str:
-        return _compare(r[self.a], r[self.b], "lower")
+    @property
+    def pairs(self) -> tuple[tuple[str, str], ...]:
+        """The ``(a, b)`` comparisons the rule judges (their training-seed spread widens the verdict's interval)."""
+        return ((self.a, self.b),)
+
+    def judge(self, r: Mapping[str, Result], spread: TrainingSpread | None = None) -> str:
+        return _compare(r[self.a], r[self.b], "lower", spread)
 
     def describe(self) -> str:
         return f"{self.a} < {self.b}"
@@ -102,8 +117,8 @@ class Less:
 class Greater(Less):
     """``a > b``."""
 
-    def judge(self, r: Mapping[str, Result]) -> str:
-        return _compare(r[self.a], r[self.b], "higher")
+    def judge(self, r: Mapping[str, Result], spread: TrainingSpread | None = None) -> str:
+        return _compare(r[self.a], r[self.b], "higher", spread)
 
     def describe(self) -> str:
         return f"{self.a} > {self.b}"
@@ -121,9 +136,13 @@ class Between:
     def keys(self) -> tuple[str, ...]:
         return (self.x, self.low, self.high)
 
-    def judge(self, r: Mapping[str, Result]) -> str:
+    @property
+    def pairs(self) -> tuple[tuple[str, str], ...]:
+        return ((self.low, self.x), (self.x, self.high))
+
+    def judge(self, r: Mapping[str, Result], spread: TrainingSpread | None = None) -> str:
         x, lo, hi = r[self.x], r[self.low], r[self.high]
-        return _combine([_compare(lo, x, "lower"), _compare(x, hi, "lower")])
+        return _combine([_compare(lo, x, "lower", spread), _compare(x, hi, "lower", spread)])
 
     def describe(self) -> str:
         return f"{self.low} < {self.x} < {self.high}"
@@ -142,9 +161,12 @@ class Increasing:
     def keys(self) -> tuple[str, ...]:
         return self.ordered
 
-    def judge(self, r: Mapping[str, Result]) -> str:
-        pairs = zip(self.ordered[:-1], self.ordered[1:], strict=True)
-        return _combine([_compare(r[a], r[b], "lower") for a, b in pairs])
+    @property
+    def pairs(self) -> tuple[tuple[str, str], ...]:
+        return tuple(zip(self.ordered[:-1], self.ordered[1:], strict=True))
+
+    def judge(self, r: Mapping[str, Result], spread: TrainingSpread | None = None) -> str:
+        return _combine([_compare(r[a], r[b], "lower", spread) for a, b in self.pairs])
 
     def describe(self) -> str:
         return " < ".join(self.ordered)
@@ -165,7 +187,9 @@ class Within:
     def keys(self) -> tuple[str, ...]:
         return (self.a, self.b)
 
-    def judge(self, r: Mapping[str, Result]) -> str:
+    pairs = ()  # a relative tolerance on point values: no interval to widen
+
+    def judge(self, r: Mapping[str, Result], spread: TrainingSpread | None = None) -> str:
         a, b = r[self.a].value, r[self.b].value
         return HOLDS if abs(a - b) <= self.rel_tol * abs(b) else FAILS
 
@@ -193,7 +217,9 @@ class AtMost:
     def keys(self) -> tuple[str, ...]:
         return (self.x,)
 
-    def judge(self, r: Mapping[str, Result]) -> str:
+    pairs = ()
+
+    def judge(self, r: Mapping[str, Result], spread: TrainingSpread | None = None) -> str:
         return HOLDS if r[self.x].value <= self.limit else FAILS
 
     def describe(self) -> str:

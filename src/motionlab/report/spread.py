@@ -1,0 +1,115 @@
+"""How far retraining moves a claim's numbers: the between-training-run spread the claims table adds to its intervals.
+
+A chapter's number comes from one trained model. Its interval (sampling seeds, test clips) says how well that model
+was measured, not how far another training run — another seed, another CPU, another precision — would land. A
+verdict judged on it alone can flip between two machines. The training-seed study (``experiments/training_seeds.py``)
+trains the same models again with other seeds and records every claim number per seed under
+``book/data/training_seeds/embedded-v<N>/``; :class:`TrainingSpread` reads those files.
+
+The rule (stated on chapter 99): for a comparison of ``a`` with ``b`` whose numbers were measured on ``k >= 3``
+training seeds, the per-seed differences ``d_s = a_s − b_s`` give the spread of one training run's difference,
+``t_{0.975, k−1} · sd(d)``; the verdict's 95% interval of ``a − b`` adds it in quadrature to the measurement's
+(:class:`motionlab.report.Comparison`'s ``training``). A difference that retraining alone can produce reads
+"inconclusive", on every machine.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from motionlab.estimate import Estimate
+
+MIN_SEEDS = 3  # fewer seeds give no usable spread (t with one degree of freedom is 12.7)
+FOLDER = ("book", "data", "training_seeds")
+
+
+@dataclass(frozen=True)
+class TrainingSpread:
+    """Claim numbers measured on several training seeds of the same models: ``values[key][seed]``.
+
+    ``data`` is the dataset key the numbers were measured on (a spread applies only to results on that data),
+    ``measured`` one line per seed: where and how it was measured.
+    """
+
+    profile: str
+    data: str
+    values: dict[str, dict[int, float]] = field(default_factory=dict)
+    measured: tuple[str, ...] = ()
+
+    def seeds(self, *keys: str) -> list[int]:
+        """The training seeds on which every one of ``keys`` was measured (sorted)."""
+        common = set.intersection(*(set(self.values.get(k, {})) for k in keys)) if keys else set()
+        return sorted(common)
+
+    def difference(self, a: str, b: str) -> Estimate | None:
+        """``a − b`` across the training seeds both were measured on: the mean difference, and as the half-width
+        ``t_{0.975, k−1} · sd`` the spread of *one* training run's difference around it (None below ``MIN_SEEDS``)."""
+        from scipy.special import stdtrit
+
+        seeds = self.seeds(a, b)
+        if len(seeds) < MIN_SEEDS:
+            return None
+        d = [self.values[a][s] - self.values[b][s] for s in seeds]
+        mean = sum(d) / len(d)
+        sd = math.sqrt(sum((x - mean) ** 2 for x in d) / (len(d) - 1))
+        return Estimate(mean, float(stdtrit(len(d) - 1, 0.975)) * sd, len(d))
+
+    def applies_to(self, note: str | None) -> bool:
+        """Whether a recorded result (by its note, which names the data as ``data <key>``) is on this spread's data."""
+        return bool(note) and f"data {self.data}" in note
+
+
+def _folder(start: Path | None = None) -> Path | None:
+    """``book/data/training_seeds`` of the repository, from the working directory upwards, then from this file."""
+    here = (start or Path.cwd()).resolve()
+    for base in (here, *here.parents, *Path(__file__).resolve().parents):
+        candidate = base.joinpath(*FOLDER)
+        if candidate.is_dir():
+            return candidate
+    return None
+
+
+def read_spread(files: Iterable[Path], profile: str) -> TrainingSpread | None:
+    """The spread in ``files`` (the study's ``<study>-<profile>-seed<k>.json``) for ``profile``; None if none match.
+
+    Every file must be on the same data; a seed recorded twice (two studies of one chain) is an error.
+    """
+    values: dict[str, dict[int, float]] = {}
+    data, measured = None, []
+    for path in sorted(files):
+        record = json.loads(Path(path).read_text())
+        if record.get("profile") != profile:
+            continue
+        if data is not None and record["data"] != data:
+            raise ValueError(f"{path} was measured on {record['data']}, the others on {data}")
+        data, seed, study = record["data"], int(record["training_seed"]), record["study"]
+        for key, value in record["values"].items():
+            per_seed = values.setdefault(f"{study}/{key}", {})
+            if seed in per_seed:
+                raise ValueError(f"{path}: training seed {seed} of {study}/{key} is recorded twice")
+            per_seed[seed] = float(value)
+        measured.append(f"{study} seed {seed}: {record['cpu']}, {record['precision']}, commit {record['commit']}")
+    if data is None:
+        return None
+    return TrainingSpread(profile, data, values, tuple(measured))
+
+
+def load_spread(profile: str, folder: str | Path | None = None, data: str | None = None) -> TrainingSpread | None:
+    """The recorded training-seed spread of ``profile``'s models on the embedded data (None where none was measured,
+    or, given ``data``, a dataset key, where it was measured on other data).
+
+    ``folder`` defaults to the repository's ``book/data/training_seeds/embedded-v<N>`` of the current embedded data.
+    """
+    if folder is None:
+        from motionlab.data.embedded.generator import VERSION
+
+        root = _folder()
+        if root is None:
+            return None
+        folder = root / f"embedded-v{VERSION}"
+    spread = read_spread(Path(folder).glob("*.json"), profile)
+    return None if spread is None or (data is not None and spread.data != data) else spread
