@@ -1,18 +1,27 @@
-"""How far does retraining move DisCoRD's claim numbers? Train the chain behind them again with other seeds.
+"""How far does retraining move the claims' numbers? Train the models behind them again with other seeds.
 
-Chapter 05 judges DisCoRD's Table 1 claims on one trained RVQ tokenizer and one DisCoRD decoder, decoded at
-temperature 0: the numbers carry no interval, so a verdict says nothing about the training run's own variance, and a
-different CPU or precision (a different training run) can flip it. This study trains the whole chain again with
-seeds 1, 2, ... (``tokenizer/rvq-seed<k>``, then ``discord/rvq-seed<k>`` on its tokens; seed 0 is the book's pair)
-and scores every seed with chapter 05's evaluation (:func:`motionlab.evaluation.evaluate_reconstruction` at the
-profile's sizes, without the timing, which measures the machine rather than the models)::
+A chapter judges a claim on one trained model: its interval (sampling seeds, test clips) says how well that model was
+measured, not where another training run would land, and a different CPU or precision is a different training run. A
+study trains the models again with seeds 1, 2, ... (seed 0 is the book's) and scores every seed with its chapter's
+own evaluation at the profile's sizes:
 
-    python experiments/training_seeds.py --seeds 0 1 2          # laptop: about 12 CPU-minutes per new seed (bf16)
+- ``discord``: the whole chain behind DisCoRD's Table 1 claims, ``tokenizer/rvq-seed<k>`` and ``discord/rvq-seed<k>``
+  on its tokens, scored by chapter 05's :func:`~motionlab.evaluation.evaluate_reconstruction` (without the timing,
+  which measures the machine rather than the models);
+- ``m2d2m``: the text-to-motion models behind M2D2M's claims on the book's VQ tokens, ``t2m/multi-eta0.25-seed<k>``
+  (chapter 09's multi-motion table), ``t2m/uniform-seed<k>`` (its TPS row, Table 5) and ``t2m/dynamic-seed<k>``
+  (chapter 07's guidance claim, s = 0 against s = 4).
 
-Each seed's numbers go to ``<out>/discord-<profile>-seed<k>.json`` (written atomically; an existing one is skipped)
-with the machine, the precision, the commit and the training time: ``{"values": {key: value}}`` for every
-``discord/<key>`` the claims table judges (:func:`motionlab.evaluation.claim_cells`). The claims table reads the
-folder (:mod:`motionlab.report.spread`) and widens each DisCoRD comparison by the spread it finds there.
+::
+
+    python experiments/training_seeds.py --study discord --seeds 0 1 2   # laptop: ~12 CPU-min per new seed (bf16)
+    python experiments/training_seeds.py --study m2d2m --seeds 0 1 2     # laptop: ~10 CPU-min per seed
+
+Each seed's numbers go to ``<out>/<study>-<profile>-seed<k>.json`` (written atomically; an existing one is skipped)
+with the data, the machine, the precision, the commit and the time spent: ``{"values": {"discord/sjpe_rf": ...}}``,
+every claim number the study's tables give (:func:`motionlab.evaluation.reconstruction_claim_cells`,
+:func:`~motionlab.evaluation.multi_claim_cells`). The claims table reads the folder (:mod:`motionlab.report.spread`)
+and adds to each comparison it judges the spread it finds there.
 """
 
 from __future__ import annotations
@@ -30,7 +39,17 @@ import torch
 
 from motionlab import models
 from motionlab.data.embedded.generator import VERSION
-from motionlab.evaluation import ReconstructionConfig, claim_cells, evaluate_reconstruction
+from motionlab.evaluation import (
+    ReconstructionConfig,
+    TextToMotionConfig,
+    evaluate_multi,
+    evaluate_reconstruction,
+    evaluate_t2m,
+    multi_claim_cells,
+    reconstruction_claim_cells,
+)
+from motionlab.evaluation.multi import paper_config
+from motionlab.evaluation.t2m import seed_replica
 from motionlab.io.common import write_text_atomic
 from motionlab.precision import read_cpu_info, resolve_precision
 from motionlab.sizes import chapter_sizes
@@ -46,28 +65,70 @@ def _commit() -> str | None:
     return out.stdout.strip() or None
 
 
-def score(training_seed: int, profile: str) -> dict:
-    """Train (or load) the chain of ``training_seed`` and score it with chapter 05's evaluation (no timing)."""
-    dataset = models.load("data", None, profile)
+def _discord(training_seed: int, dataset, profile: str) -> tuple[list[str], dict[str, float], list[str]]:
+    """DisCoRD's chain of ``training_seed`` scored with chapter 05's evaluation (no timing)."""
     config = ReconstructionConfig.from_sizes(chapter_sizes(profile).discord, training_seed=training_seed)
     config = replace(config, timing_repeats=0)
-    start, cpu = time.perf_counter(), time.process_time()
-    for name in config.book_models():  # trained here on first use, so that the training time is their own
-        models.load(name, dataset, profile)
-    training = {"seconds": round(time.perf_counter() - start, 1), "cpu_seconds": round(time.process_time() - cpu, 1)}
+    _train(config.book_models(), dataset, profile)
     table = evaluate_reconstruction(dataset, config, profile)
-    values = {key: table.estimate(row, metric).mean for key, (row, metric) in claim_cells(table, config).items()}
-    return {
-        "data": dataset.key,
-        "training": training,
-        "models": config.book_models(),
-        "command": config.command_line(profile),
-        "values": values,
-    }
+    cells = reconstruction_claim_cells(table, config)
+    values = {f"discord/{key}": table.estimate(row, metric).mean for key, (row, metric) in cells.items()}
+    return config.book_models(), values, [config.command_line(profile)]
+
+
+def _m2d2m(training_seed: int, dataset, profile: str) -> tuple[list[str], dict[str, float], list[str]]:
+    """M2D2M's text-to-motion models of ``training_seed`` scored with chapter 09's and chapter 07's evaluations: the
+    multi-motion table of the multi-motion model, TPS of the uniform model, and guidance s = 0 vs 4 of the dynamic
+    one. Only the diffusion model is retrained; every seed reads the book's VQ tokens."""
+    sizes = chapter_sizes(profile)
+    suffix = f"-seed{training_seed}" if training_seed else ""
+    multi, uniform, dynamic = (
+        f"t2m/multi-eta0.25{suffix}",
+        seed_replica("uniform", training_seed),
+        seed_replica("dynamic", training_seed),
+    )
+    _train([multi, uniform, dynamic], dataset, profile)
+    paper = paper_config(sizes.tps, model=multi)
+    arms = paper_config(sizes.tps, model=uniform, methods=("independent", "tps"))
+    guidance = TextToMotionConfig.from_sizes(
+        sizes.diffusion,
+        models=(dynamic,),
+        guidance_scales=(0.0, 4.0),
+        multimodality=False,
+        reconstruction=False,
+        token_stats=False,
+    )
+    table, uniform_table = evaluate_multi(dataset, paper, profile), evaluate_multi(dataset, arms, profile)
+    t2m = evaluate_t2m(dataset, guidance, profile)
+    values = {f"tps/{key}": table.estimate(row, m).mean for key, (row, m) in multi_claim_cells(table).items()}
+    tps_row, _ = multi_claim_cells(uniform_table)["jerk_tps"]
+    values["tps/jerk_tps_uniform"] = uniform_table.estimate(tps_row, "jerk").mean
+    for key, scale in (("fid_guided", 4), ("fid_unguided", 0)):
+        values[f"diffusion/{key}"] = t2m.estimate(guidance.row(dynamic, scale), "fid").mean
+    commands = [c.command_line(profile) for c in (paper, arms, guidance)]
+    return [multi, uniform, dynamic], values, commands
+
+
+STUDIES = {"discord": _discord, "m2d2m": _m2d2m}
+
+
+def _train(names: list[str], dataset, profile: str) -> None:
+    for name in names:  # trained here on first use, so that the training time is their own
+        models.load(name, dataset, profile)
+
+
+def score(study: str, training_seed: int, profile: str) -> dict:
+    """Train (or load) ``study``'s models of ``training_seed`` and score them: the claim numbers by key."""
+    dataset = models.load("data", None, profile)
+    start, cpu = time.perf_counter(), time.process_time()
+    trained, values, commands = STUDIES[study](training_seed, dataset, profile)
+    spent = {"seconds": round(time.perf_counter() - start, 1), "cpu_seconds": round(time.process_time() - cpu, 1)}
+    return {"data": dataset.key, "models": trained, "commands": commands, "seconds": spent, "values": values}
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--study", choices=sorted(STUDIES), default="discord", help="whose models (default: discord)")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="training seeds (0: the book's)")
     parser.add_argument("--profile", default="laptop", help="the sizes of the models and evaluations (default: laptop)")
     parser.add_argument("--out", type=Path, default=OUT)
@@ -77,13 +138,13 @@ def main(argv: list[str] | None = None) -> int:
     torch.set_num_threads(1)  # one process per experiment on a shared machine
     args.out.mkdir(parents=True, exist_ok=True)
     for seed in args.seeds:
-        path = args.out / f"discord-{args.profile}-seed{seed}.json"
+        path = args.out / f"{args.study}-{args.profile}-seed{seed}.json"
         if path.exists():
             print(f"seed {seed}: recorded already ({path})", file=sys.stderr)
             continue
-        print(f"seed {seed}: training (or loading) the chain and scoring it", file=sys.stderr)
+        print(f"{args.study} seed {seed}: training (or loading) the models and scoring them", file=sys.stderr)
         record = {
-            "study": "discord",
+            "study": args.study,
             "training_seed": seed,
             "profile": args.profile,
             "cpu": read_cpu_info().summary,
@@ -91,7 +152,7 @@ def main(argv: list[str] | None = None) -> int:
             "precision": resolve_precision(),
             "torch_threads": torch.get_num_threads(),
             "commit": _commit(),
-            **score(seed, args.profile),
+            **score(args.study, seed, args.profile),
         }
         write_text_atomic(path, json.dumps(record, indent=1) + "\n")
         print(f"seed {seed}: wrote {path}", file=sys.stderr)

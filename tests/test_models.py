@@ -281,3 +281,12 @@ def test_tokenizer_seed_changes_weights_codebook_and_batch_order_only(monkeypatc
     assert replace(other, seed=0, train=replace(other.train, seed=0)) == book
     with pytest.raises(ValueError, match="seed must be an integer >= 0"):
         tokenizers.tokenizer_for_dataset("rvq", dataset, "smoke", seed=-1)
+
+
+def test_a_multi_motion_replicate_is_the_multi_motion_model_with_another_training_seed(monkeypatch):
+    verbs = _Verbs(monkeypatch)
+    (_, book), *_ = verbs.of(lambda: models.load("t2m/multi-eta0.25", "ds", "smoke"))
+    (_, again), *_ = verbs.of(lambda: models.load("t2m/multi-eta0.25-seed0", "ds", "smoke"))
+    (_, other), *_ = verbs.of(lambda: models.load("t2m/multi-eta0.25-seed2", "ds", "smoke"))
+    assert book == again and (book["eta"], book["seed"]) == (MULTI_MOTION_ETA, None)
+    assert (other["eta"], other["seed"]) == (MULTI_MOTION_ETA, 2)

@@ -20,7 +20,7 @@ name                            model
 ``discord/<kind>-seed<k>``      the decoder trained with seed ``k`` on ``tokenizer/<kind>-seed<k>``: a replicate of
                                 the whole chain (the training-seed study, ``experiments/training_seeds.py``)
 ``t2m/dynamic``, ``/uniform``   the text-to-motion models with dynamic (paper η) and uniform (η = 0) transitions
-``t2m/multi-eta0.25``           the dynamic model at M2D2M's multi-motion η
+``t2m/multi-eta0.25``           the dynamic model at M2D2M's multi-motion η (``-seed<k>``: a training-seed replicate)
 ``t2m/<arm>-seed<k>``           a training-seed replicate of ``dynamic`` or ``uniform`` (chapter 08)
 ``t2m/<arm>-steps<n>``          that model trained for ``n`` steps (also ``-seed<k>-steps<n>``; the budget study)
 ``t2m/distance-<kind>``         chapter 08's distance ablation (``l2``, ``cosine``, ``cosine_rank``; full profile)
@@ -41,6 +41,7 @@ from motionlab.profiles import get_profile
 PROJECTIONS = ("stacked", "repeat", "transposed")
 DISTANCES = ("l2", "cosine", "cosine_rank")
 _T2M = re.compile(r"^t2m/(dynamic|uniform)(?:-seed(\d+))?(?:-steps(\d+))?$")
+_MULTI = re.compile(r"^t2m/multi-eta0\.25(?:-seed(\d+))?$")
 _SEEDED = re.compile(r"^(vq|rvq)(?:-seed(\d+))?$")  # a tokenizer kind, or a replicate of its training chain
 
 
@@ -81,8 +82,9 @@ def _text_to_motion(variant: str, dataset, profile: str, device):
     from motionlab.multimotion import MULTI_MOTION_ETA
 
     name = f"t2m/{variant}"
-    if name == "t2m/multi-eta0.25":
-        return text_to_motion_for_dataset(dataset, profile, eta=MULTI_MOTION_ETA, device=device)
+    if (multi := _MULTI.match(name)) is not None:  # seed 0 (or none): the book's multi-motion model
+        seed = int(multi.group(1) or 0)
+        return text_to_motion_for_dataset(dataset, profile, eta=MULTI_MOTION_ETA, seed=seed or None, device=device)
     if variant.startswith("distance-") and variant[len("distance-") :] in DISTANCES:
         return text_to_motion_for_dataset(dataset, profile, distance=variant[len("distance-") :], device=device)
     match = _T2M.match(name)

@@ -345,7 +345,8 @@ def test_reconstruction_training_seed_names_the_replicate_chain():
 
 def test_claim_cells_name_the_cells_the_claims_judge():
     from motionlab.estimate import Estimate
-    from motionlab.evaluation import EvaluationTable, ReconstructionConfig, claim_cells
+    from motionlab.evaluation import EvaluationTable, ReconstructionConfig
+    from motionlab.evaluation import reconstruction_claim_cells as claim_cells
     from motionlab.evaluation.reconstruction import GROUND_TRUTH
 
     config = ReconstructionConfig(grid=(("midpoint", 1), ("midpoint", 15), ("euler", 2)))
@@ -363,3 +364,24 @@ def test_claim_cells_name_the_cells_the_claims_judge():
     assert "fid_steps2" not in no_grid and no_grid["fid_rf"] == ("DisCoRD", "fid")
     with pytest.raises(ValueError, match="decoder='discord'"):
         claim_cells(table, ReconstructionConfig(decoder="vq"))
+
+
+def test_multi_claim_cells_name_chapter_09s_rows():
+    from motionlab.estimate import Estimate
+    from motionlab.evaluation import EvaluationTable, multi_claim_cells
+    from motionlab.evaluation.multi import PAPER_METHODS, method_rows
+    from motionlab.multimotion import GROUND_TRUTH_CONCAT, GROUND_TRUTH_SINGLE
+
+    cell = {m: Estimate(1.0) for m in ("jerk", "fid", "r_top3", "segment_jerk")}
+    rows = {label: cell for label in method_rows(PAPER_METHODS, 90)}
+    rows |= {GROUND_TRUTH_SINGLE: {"jerk": Estimate(1.2)}, GROUND_TRUTH_CONCAT: {"jerk": Estimate(1.4)}}
+    table = EvaluationTable("multi", "smoke", "d", "test", 1, 0, {}, {"instances": 2}, tuple(cell), rows)
+    cells = multi_claim_cells(table)
+    assert cells["jerk_tps"] == ("TPS (T_s = 90)", "jerk") and cells["fid_ts50"] == ("TPS (T_s = 50)", "fid")
+    assert cells["fid_ts100"] == ("Independent (tokens concatenated)", "fid")
+    assert cells["jerk_handshake"] == ("Handshake (40 frames)", "jerk")
+    assert cells["r_top3_tps_compound"] == ("TPS (T_s = 90, compound condition)", "r_top3")
+    assert cells["jerk_gt_concat"] == (GROUND_TRUTH_CONCAT, "jerk")
+    assert "jerk_concat_minus_inside" not in cells  # the table has no such column
+    only_two = EvaluationTable("multi", "smoke", "d", "test", 1, 0, {}, {}, ("jerk",), {"TPS (T_s = 90)": cell})
+    assert set(multi_claim_cells(only_two)) == {"jerk_tps", "segment_jerk_tps", "fid_ts90", "r_top3_tps"}

@@ -39,7 +39,9 @@ from .common import (
     repeat_seed,
 )
 from .multi import MultiMotionConfig, evaluate_multi
-from .reconstruction import ReconstructionConfig, claim_cells, evaluate_reconstruction
+from .multi import claim_cells as multi_claim_cells
+from .reconstruction import ReconstructionConfig, evaluate_reconstruction
+from .reconstruction import claim_cells as reconstruction_claim_cells
 from .t2m import TextToMotionConfig, evaluate_t2m
 from .table import (
     METRIC_LABELS,
@@ -58,7 +60,8 @@ EVALUATORS = {"reconstruction": evaluate_reconstruction, "t2m": evaluate_t2m, "m
 CONFIGS = {"reconstruction": ReconstructionConfig, "t2m": TextToMotionConfig, "multi": MultiMotionConfig}
 
 __all__ = [
-    "claim_cells",
+    "multi_claim_cells",
+    "reconstruction_claim_cells",
     "CLI_OPTIONS",
     "CONFIGS",
     "EVALUATORS",

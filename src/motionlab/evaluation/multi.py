@@ -193,6 +193,46 @@ def paper_config(sizes, seed: int = 0, **changes: Any) -> MultiMotionConfig:
     return MultiMotionConfig(**{**options, **changes})
 
 
+# chapter 09's claim numbers (``tps/<key>``): the metric of each method spec of PAPER_METHODS, or of a reference row
+_CLAIM_METHODS = {
+    "jerk_tps": ("tps", "jerk"),
+    "jerk_independent": ("independent", "jerk"),
+    "jerk_separate": ("separate", "jerk"),
+    "jerk_handshake": ("handshake:transition=40", "jerk"),
+    "jerk_slerp": ("slerp:transition=40", "jerk"),
+    "segment_jerk_tps": ("tps", SEGMENT_JERK),
+    "fid_separate": ("separate", "fid"),
+    "fid_ts100": ("independent", "fid"),  # T_s = T: no joint step, each action alone
+    "fid_ts90": ("tps", "fid"),
+    "fid_ts50": ("tps:T_s=50", "fid"),
+    "fid_handshake": ("handshake:transition=40", "fid"),
+    "fid_slerp": ("slerp:transition=40", "fid"),
+    "r_top3_tps": ("tps", "r_top3"),
+    "r_top3_independent": ("independent", "r_top3"),
+    "r_top3_tps_compound": ("tps:joint_text=all", "r_top3"),
+    "fid_tps_compound": ("tps:joint_text=all", "fid"),
+    "jerk_tps_compound": ("tps:joint_text=all", "jerk"),
+}
+
+
+def claim_cells(table: EvaluationTable, T_s: int = 90) -> dict[str, tuple[str, str]]:
+    """Which cell of a multi-motion table each of chapter 09's claim numbers is: ``{key: (row, metric)}`` for the
+    ``tps/<key>`` results the claims table judges (the ground-truth Jerks and every method of :data:`PAPER_METHODS`
+    whose row the table has). ``T_s`` is TPS's switch step where a spec gives none (the tables' 0.9·T of T = 100).
+    """
+    from motionlab.multimotion import GROUND_TRUTH_CONCAT, GROUND_TRUTH_SINGLE
+
+    cells = {
+        "jerk_gt_single": (GROUND_TRUTH_SINGLE, "jerk"),
+        "jerk_gt_concat": (GROUND_TRUTH_CONCAT, "jerk"),
+        "jerk_concat_minus_inside": (GROUND_TRUTH_CONCAT, "cut_minus_inside"),
+    }
+    for key, (spec, metric) in _CLAIM_METHODS.items():
+        (label,) = method_rows((spec,), T_s)
+        cells[key] = (label, metric)
+    return {key: (row, m) for key, (row, m) in cells.items() if m in table.rows.get(row, {})}
+
+
 @dataclass
 class _Counting:
     """A multi-motion generator that ticks a progress bar after every ``generate`` call."""

@@ -88,7 +88,7 @@ def read_spread(files: Iterable[Path], profile: str) -> TrainingSpread | None:
             raise ValueError(f"{path} was measured on {record['data']}, the others on {data}")
         data, seed, study = record["data"], int(record["training_seed"]), record["study"]
         for key, value in record["values"].items():
-            per_seed = values.setdefault(f"{study}/{key}", {})
+            per_seed = values.setdefault(key if "/" in key else f"{study}/{key}", {})
             if seed in per_seed:
                 raise ValueError(f"{path}: training seed {seed} of {study}/{key} is recorded twice")
             per_seed[seed] = float(value)
