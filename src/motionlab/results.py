@@ -12,6 +12,7 @@ and a chapter's findings box). This module keeps ``from motionlab import results
 from __future__ import annotations
 
 from motionlab.estimate import format_estimate
+from motionlab.report.budget import BudgetStudy, load_budget
 from motionlab.report.claims import CLAIMS, FINDINGS, PAPER_NUMBERS, Finding, claim_keys, paper_results
 from motionlab.report.quantities import QUANTITIES, quantity
 from motionlab.report.render import (
@@ -57,6 +58,7 @@ __all__ = [
     "VERDICT_COLOURS",
     "AtMost",
     "Between",
+    "BudgetStudy",
     "ChapterFindings",
     "Claim",
     "ClaimRow",
@@ -79,6 +81,7 @@ __all__ = [
     "paper_results",
     "judge",
     "load_all",
+    "load_budget",
     "load_spread",
     "quantity",
     "record",

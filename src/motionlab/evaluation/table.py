@@ -242,6 +242,28 @@ class EvaluationTable:
             "rows": rows,
         }
 
+    @classmethod
+    def from_json_dict(cls, record: Mapping[str, Any]) -> EvaluationTable:
+        """The table :meth:`to_json_dict` wrote (its per-sample values are not stored: :meth:`paired` needs the
+        table as computed); a ``null`` number reads back as NaN."""
+
+        def number(x: float | None) -> float:
+            return math.nan if x is None else float(x)
+
+        rows = {
+            name: {m: Estimate(number(c["mean"]), number(c["ci95"]), int(c["n"])) for m, c in row.items()}
+            for name, row in record["rows"].items()
+        }
+        fields = ("task", "profile", "data", "split", "repeats", "seed", "config", "counts")
+        return cls(
+            **{name: record[name] for name in fields},
+            metrics=tuple(record["metrics"]),
+            rows=rows,
+            deterministic=tuple(record.get("deterministic", ())),
+            notes=list(record.get("notes", [])),
+            precision=record.get("precision", "fp32"),
+        )
+
 
 def _cell(e: Estimate, digits: int, fixed: bool) -> str:
     # one run has no spread to report: print its value alone rather than a "± 0" that looks measured

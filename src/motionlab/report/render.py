@@ -11,6 +11,7 @@ from motionlab.estimate import format_estimate, format_number
 from motionlab.profiles import get_profile
 from motionlab.viz.tables import Table
 
+from .budget import BudgetStudy, load_budget, scale_statement
 from .claims import CLAIMS, FINDINGS
 from .quantities import quantity
 from .rules import Claim, training_difference
@@ -33,6 +34,7 @@ class ClaimRow:
     verdict: str
     missing: tuple[str, ...] = ()
     mechanism: str = ""  # one line per Evidence, from the recorded numbers ("" when the claim has none)
+    scale: str = ""  # the claim judged at other training budgets (report.budget; "" where none was measured)
 
 
 VERDICT_COLOURS = {HOLDS: "#1a7f37", FAILS: "#cf222e", INCONCLUSIVE: "#9a6700", MISSING: "#57606a"}
@@ -128,14 +130,21 @@ class ClaimsTable:
                     f'<tr class="ml-mechanism"><td></td><td colspan="3"><small><b>Why, as measured:</b> '
                     f"{lines}</small></td></tr>"
                 )
+            if row.scale:
+                out.append(
+                    f'<tr class="ml-scale"><td></td><td colspan="3"><small><b>At other scales:</b> '
+                    f"{esc(row.scale)}</small></td></tr>"
+                )
         out.append("</tbody></table></div>")
         return "\n".join(out)
 
     def to_markdown(self) -> str:
         out = [f"- {line}" for line in self.summary()] + [""]
-        out += ["| Paper | Where | Claim | Paper | Ours | Verdict | Measured mechanism |", "|---" * 7 + "|"]
+        out += ["| Paper | Where | Claim | Paper | Ours | Verdict | Measured mechanism | Measured scale |"]
+        out += ["|---" * 8 + "|"]
         for r in self.rows:
-            cells = (r.paper, r.source, r.statement, r.paper_value, r.ours, r.verdict, r.mechanism.replace("\n", "; "))
+            mechanism = r.mechanism.replace("\n", "; ")
+            cells = (r.paper, r.source, r.statement, r.paper_value, r.ours, r.verdict, mechanism, r.scale)
             out.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
         return "\n".join(out)
 
@@ -149,6 +158,14 @@ def _spread(spread: TrainingSpread | str | None, profile: str) -> TrainingSpread
     if spread is not None and not isinstance(spread, TrainingSpread):
         raise TypeError(f"spread must be a TrainingSpread, None or {RECORDED!r}, got {type(spread).__name__}")
     return spread
+
+
+def _budget(budget: BudgetStudy | str | None, profile: str) -> BudgetStudy | None:
+    if budget == RECORDED:
+        return load_budget(profile)
+    if budget is not None and not isinstance(budget, BudgetStudy):
+        raise TypeError(f"budget must be a BudgetStudy, None or {RECORDED!r}, got {type(budget).__name__}")
+    return budget
 
 
 def retraining_phrase(rule, recorded: Mapping[str, Result], spread: TrainingSpread | None) -> str:
@@ -182,12 +199,20 @@ def spread_table(spread: TrainingSpread, claims: Sequence[Claim] = CLAIMS) -> Ta
     return Table("claim (a − b)", rows, notes=(f"measured on {spread.data}: " + "; ".join(spread.measured),))
 
 
-def judge(claim: Claim, recorded: Mapping[str, Result], spread: TrainingSpread | None = None) -> ClaimRow:
+def judge(
+    claim: Claim,
+    recorded: Mapping[str, Result],
+    spread: TrainingSpread | None = None,
+    budget: BudgetStudy | None = None,
+) -> ClaimRow:
     """One row: the claim, our numbers for its keys (a phrase with units and intervals), and the verdict.
 
     ``spread``: the training-seed study's (:mod:`motionlab.report.spread`); where it measured a comparison's keys,
-    its between-run spread joins the verdict's interval and the phrase says how large it is.
+    its between-run spread joins the verdict's interval and the phrase says how large it is. ``budget``: the budget
+    study's (:mod:`motionlab.report.budget`); where it measured the claim's keys, the row says how the claim fares at
+    each training budget.
     """
+    scale = scale_statement(claim, budget) if budget is not None else None
     missing = tuple(k for k in claim.keys if k not in recorded)
     verdict = MISSING if missing else claim.rule.judge(recorded, spread)
     mechanism = "\n".join(e.format(recorded) for e in claim.mechanism)
@@ -203,6 +228,7 @@ def judge(claim: Claim, recorded: Mapping[str, Result], spread: TrainingSpread |
         verdict,
         missing,
         mechanism,
+        scale.sentence() if scale is not None else "",
     )
 
 
@@ -211,13 +237,15 @@ def claims_table(
     recorded: Mapping[str, Result] | None = None,
     claims: Sequence[Claim] = CLAIMS,
     spread: TrainingSpread | str | None = RECORDED,
+    budget: BudgetStudy | str | None = RECORDED,
 ) -> ClaimsTable:
     """Judge every claim on the results recorded for ``profile`` (or on ``recorded`` if given), with the training-seed
-    spread recorded for the profile (``spread=None``: on the measurements' intervals alone)."""
+    spread recorded for the profile (``spread=None``: on the measurements' intervals alone), and with each claim's
+    verdicts at the budget study's training budgets where it was recorded (``budget=None``: without)."""
     profile = get_profile(profile)
     recorded = load_all(profile) if recorded is None else recorded
-    spread = _spread(spread, profile)
-    return ClaimsTable([judge(c, recorded, spread) for c in claims], profile)
+    spread, budget = _spread(spread, profile), _budget(budget, profile)
+    return ClaimsTable([judge(c, recorded, spread, budget) for c in claims], profile)
 
 
 @dataclass(frozen=True)

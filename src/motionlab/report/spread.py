@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -63,11 +63,12 @@ class TrainingSpread:
         return bool(note) and f"data {self.data}" in note
 
 
-def _folder(start: Path | None = None) -> Path | None:
-    """``book/data/training_seeds`` of the repository, from the working directory upwards, then from this file."""
+def find_folder(parts: Sequence[str], start: Path | None = None) -> Path | None:
+    """A folder of the repository (e.g. ``book/data/training_seeds``), from the working directory upwards, then from
+    this file upwards (an editable install); None where there is none (an installed wheel has no ``book/``)."""
     here = (start or Path.cwd()).resolve()
     for base in (here, *here.parents, *Path(__file__).resolve().parents):
-        candidate = base.joinpath(*FOLDER)
+        candidate = base.joinpath(*parts)
         if candidate.is_dir():
             return candidate
     return None
@@ -107,7 +108,7 @@ def load_spread(profile: str, folder: str | Path | None = None, data: str | None
     if folder is None:
         from motionlab.data.embedded.generator import VERSION
 
-        root = _folder()
+        root = find_folder(FOLDER)
         if root is None:
             return None
         folder = root / f"embedded-v{VERSION}"

@@ -1,0 +1,95 @@
+"""The M2D2M budget study read back: claim numbers per budget, each claim judged at every budget by its own rule."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from motionlab.estimate import Estimate
+from motionlab.evaluation import EvaluationTable
+from motionlab.evaluation.multi import PAPER_METHODS, method_rows
+from motionlab.multimotion import GROUND_TRUTH_CONCAT, GROUND_TRUTH_SINGLE
+from motionlab.report.budget import budget_results, load_budget, scale_statement
+from motionlab.report.render import claims_table
+from motionlab.results import CLAIMS, FAILS, HOLDS
+
+LAPTOP = 800  # the laptop profile's training steps
+
+
+def _claim(key_part: str):
+    return next(c for c in CLAIMS if key_part in c.rule.describe())
+
+
+def _record(arm: str, seed: int, steps: int, tps_jerk: float, fid_s4: float = 12.0) -> dict:
+    name = f"t2m/{arm}-seed{seed}-steps{steps}"
+    methods = {
+        label: {"jerk": Estimate(1.3, 0.05, 3), "fid": Estimate(10.0, 1.0, 3)}
+        for label in method_rows(PAPER_METHODS, 90)
+    }
+    methods["TPS (T_s = 90)"] = {"jerk": Estimate(tps_jerk, 0.05, 3), "fid": Estimate(10.0, 1.0, 3)}
+    rows = {
+        GROUND_TRUTH_SINGLE: {"jerk": Estimate(1.6, 0.03, 3)},
+        GROUND_TRUTH_CONCAT: {"jerk": Estimate(1.8, 0.05, 3)},
+    }
+    multi = EvaluationTable("multi", "laptop", "d", "test", 3, 0, {}, {}, ("jerk", "fid"), rows | methods)
+    t2m_rows = {f"{name}, s = {s:g}": {"fid": Estimate(fid_s4 if s == 4 else 5.0, 1.0, 3)} for s in (0, 1, 2, 4)}
+    t2m = EvaluationTable("t2m", "laptop", "d", "test", 3, 0, {}, {}, ("fid",), t2m_rows)
+    return {"model": name, "arm": arm, "training_seed": seed, "steps": steps, "profile": "laptop"} | {
+        "multi": multi.to_json_dict(),
+        "t2m": t2m.to_json_dict(),
+    }
+
+
+@pytest.fixture
+def study_folder(tmp_path):
+    # TPS over-smooths at the laptop budget (1.2 < 1.6) and sits between the real rows at 4x (1.68)
+    for arm in ("dynamic", "uniform"):
+        for steps, jerk in ((800, 1.2), (3200, 1.68)):
+            (tmp_path / f"{arm}-seed0-steps{steps}.json").write_text(json.dumps(_record(arm, 0, steps, jerk)))
+    (tmp_path / "dynamic-seed1-steps3200.json").write_text(json.dumps(_record("dynamic", 1, 3200, 1.64)))
+    return tmp_path
+
+
+def test_the_study_reads_its_budgets_and_seeds(study_folder):
+    study = load_budget("laptop", study_folder)
+    assert study.budgets == [800, 3200] and study.laptop_steps == LAPTOP
+    assert study.seeds(3200) == [0]  # seed 1 was scored in one arm only
+    assert load_budget("full", study_folder) is None
+
+
+def test_budget_results_give_the_claim_keys(study_folder):
+    recorded = budget_results(load_budget("laptop", study_folder), 800)
+    assert recorded["tps/jerk_tps"].value == 1.2 and recorded["tps/jerk_tps_uniform"].value == 1.2
+    assert recorded["tps/jerk_gt_single"].value == 1.6
+    assert recorded["diffusion/fid_guided"].value == 12.0 and recorded["diffusion/fid_unguided"].value == 5.0
+    assert recorded["transitions/fid_dynamic"].value == recorded["transitions/fid_uniform"].value == 12.0
+    assert recorded["tps/fid_ts50"].ci == pytest.approx((9.0, 11.0))
+    with pytest.raises(ValueError, match="no budget of 1600 steps"):
+        budget_results(load_budget("laptop", study_folder), 1600)
+
+
+def test_a_claim_is_judged_at_every_budget_by_its_own_rule(study_folder):
+    study = load_budget("laptop", study_folder)
+    between = scale_statement(_claim("tps/jerk_gt_single < tps/jerk_tps"), study)
+    assert between.verdicts == {800: FAILS, 3200: HOLDS}
+    assert "holds from 3,200 training steps (4× the laptop's)" in between.sentence()
+    guidance = scale_statement(_claim("diffusion/fid_guided"), study)
+    assert guidance.verdicts == {800: FAILS, 3200: FAILS}
+    assert "the largest budget tried, 3,200 steps (4×): FID: 12.0 ± 1.0" in guidance.sentence()
+    assert scale_statement(_claim("tps/jerk_gt_concat > tps/jerk_gt_single"), study) is None  # real motions only
+    assert scale_statement(_claim("discord/sjpe_rf < discord/sjpe_ff"), study) is None  # not the study's keys
+
+
+def test_the_claims_table_prints_the_scale_of_each_measured_row(study_folder, tmp_path, monkeypatch):
+    from motionlab import results
+
+    monkeypatch.setenv(results.RESULTS_ENV, str(tmp_path / "results"))
+    table = claims_table("laptop", budget=load_budget("laptop", study_folder), spread=None)
+    scales = {row.rule: row.scale for row in table}
+    assert scales["tps/jerk_gt_single < tps/jerk_tps < tps/jerk_gt_concat"].startswith("By training budget: 800 steps")
+    assert scales["discord/sjpe_rf < discord/sjpe_ff"] == ""
+    assert "At other scales:" in table.html() and "Measured scale" in table.to_markdown()
+    assert all(row.scale == "" for row in claims_table("laptop", budget=None, spread=None))
+    with pytest.raises(TypeError, match="budget must be a BudgetStudy"):
+        claims_table("laptop", budget=5)
