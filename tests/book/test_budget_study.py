@@ -93,3 +93,23 @@ def test_the_claims_table_prints_the_scale_of_each_measured_row(study_folder, tm
     assert all(row.scale == "" for row in claims_table("laptop", budget=None, spread=None))
     with pytest.raises(TypeError, match="budget must be a BudgetStudy"):
         claims_table("laptop", budget=5)
+
+
+def test_budget_curves_and_their_figure(study_folder):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from motionlab.report.budget import budget_curves
+    from motionlab.viz import plot_budget
+
+    study = load_budget("laptop", study_folder)
+    curves = budget_curves(study, ["tps/jerk_tps", "diffusion/fid_guided"])
+    assert [n for n, _ in curves["tps/jerk_tps"]] == [800, 3200]  # the figure dodges them, the data does not
+    assert [e.mean for _, e in curves["tps/jerk_tps"]] == [1.2, 1.68]
+    with pytest.raises(KeyError, match="measures no 'discord/sjpe_rf'"):
+        budget_curves(study, ["discord/sjpe_rf"])
+    (ax,) = plot_budget(study, {"transition Jerk": ["tps/jerk_tps", "tps/jerk_gt_single"]})
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["TPS", "real single motions"]
+    assert len(ax.lines) >= 3  # two curves and the laptop's budget
+    with pytest.raises(ValueError, match="need as many axes"):
+        plot_budget(study, {"a": ["tps/jerk_tps"], "b": ["tps/jerk_tps"]}, axes=[ax])

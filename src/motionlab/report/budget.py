@@ -16,6 +16,7 @@ with Student's t, where a budget has several).
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -151,3 +152,18 @@ def scale_statement(claim, study: BudgetStudy, guidance_scale: float = 4.0) -> S
     if not verdicts:
         return None
     return Scale(verdicts, study.laptop_steps, largest)
+
+
+def budget_curves(study: BudgetStudy, keys: Sequence[str], guidance_scale: float = 4.0) -> dict[str, list]:
+    """``{key: [(steps, Estimate), ...]}`` over the budgets, for a figure (a budget lacking a key is skipped)."""
+    per_budget = {steps: budget_results(study, steps, guidance_scale) for steps in study.budgets}
+    curves = {}
+    for key in keys:
+        points = [(steps, recorded[key].estimate) for steps, recorded in per_budget.items() if key in recorded]
+        if not points:
+            raise KeyError(f"the budget study measures no {key!r}; it has {sorted(next(iter(per_budget.values())))}")
+        curves[key] = points
+    return curves
+
+
+__all__ = ["BudgetStudy", "Scale", "budget_curves", "budget_results", "load_budget", "scale_statement"]

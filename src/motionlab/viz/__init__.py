@@ -12,6 +12,7 @@ _WHERE = {
     "plot_clouds": "plots",
     "plot_codebook_snapshots": "plots",
     "plot_feature_layout": "plots",
+    "plot_budget": "plots",
     "plot_history": "plots",
     "plot_trajectories": "plots",
     "trajectory_explorer": "plots",
