@@ -36,6 +36,8 @@ class BudgetStudy:
     profile: str
     laptop_steps: int
     records: dict[tuple[str, int, int], dict] = field(default_factory=dict)
+    # budget_results per (steps, guidance scale): each claim of the table reads them, the tables are parsed once
+    _results: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def budgets(self) -> list[int]:
@@ -52,8 +54,7 @@ class BudgetStudy:
 def load_budget(profile: str, folder: str | Path | None = None) -> BudgetStudy | None:
     """The budget study recorded for ``profile`` (None where none was): the repository's
     ``book/data/m2d2m_budget/embedded-v<N>`` of the current embedded data unless ``folder`` is given."""
-    from motionlab.diffusion.transformer import TransformerConfig
-    from motionlab.sizes import DENOISER, resized
+    from motionlab.sizes import DENOISER
 
     if folder is None:
         from motionlab.data.embedded.generator import VERSION
@@ -71,7 +72,9 @@ def load_budget(profile: str, folder: str | Path | None = None) -> BudgetStudy |
             records[(record["arm"], int(record["training_seed"]), int(record["steps"]))] = record
     if not records:
         return None
-    return BudgetStudy(profile, resized(TransformerConfig(), DENOISER, profile).train_steps, records)
+    if "train_steps" not in DENOISER.get(profile, {}):
+        raise ValueError(f"the budget study is measured against a profile's own steps; {profile!r} sets none")
+    return BudgetStudy(profile, DENOISER[profile]["train_steps"], records)
 
 
 def _cells(record: dict, arm: str, guidance_scale: float) -> dict[str, Estimate]:
@@ -100,6 +103,8 @@ def budget_results(study: BudgetStudy, steps: int, guidance_scale: float = 4.0) 
     """The claim numbers at ``steps`` training steps, as results the rules read: one seed's estimate, or with several
     seeds the mean over them with Student's t interval (the training runs' own variance). ``guidance_scale`` is
     chapter 08's s for the dynamic-vs-uniform FID (M2D2M's 4)."""
+    if (steps, guidance_scale) in study._results:
+        return study._results[steps, guidance_scale]
     seeds = study.seeds(steps)
     if not seeds:
         raise ValueError(f"no budget of {steps} steps in both arms; budgets: {study.budgets}")
@@ -115,6 +120,7 @@ def budget_results(study: BudgetStudy, steps: int, guidance_scale: float = 4.0) 
         ci = (e.mean - e.half_width, e.mean + e.half_width) if e.half_width > 0 else None
         note = f"budget study, {steps} training steps, seeds {seeds}"
         out[key] = Result(chapter, name, e.mean, ci, note=note, profile=study.profile)
+    study._results[steps, guidance_scale] = out
     return out
 
 

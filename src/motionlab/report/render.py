@@ -149,7 +149,7 @@ class ClaimsTable:
         return "\n".join(out)
 
 
-RECORDED = "recorded"  # the spread argument's default: the training-seed study recorded for the profile, if any
+RECORDED = "recorded"  # the default of spread= and budget=: the study recorded for the profile, if any
 
 
 def _spread(spread: TrainingSpread | str | None, profile: str) -> TrainingSpread | None:
