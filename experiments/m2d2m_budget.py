@@ -19,6 +19,9 @@ given, so the short ones arrive first::
     python experiments/m2d2m_budget.py --arm dynamic --seeds 0 1 2 --steps 800 1600 3200 6400 8000 &
     python experiments/m2d2m_budget.py --arm uniform --seeds 0 1 2 --steps 800 1600 3200 6400 8000 &
 
+The η axis (issue 35): ``--etas 1 2 4 8`` trains the dynamic model at each η for the profile's steps
+(``t2m/eta<η>``) and scores it the same way, into ``book/data/m2d2m_eta/embedded-v<N>/eta<η>.json``.
+
 Every model's result goes to ``<out>/<arm>-seed<k>-steps<n>.json`` (written atomically; an existing one is skipped)
 with the machine, the precision, the commit and the training time; one folder per version of the embedded data
 (``book/data/m2d2m_budget/embedded-v<N>/``), which the chapters read.
@@ -47,6 +50,7 @@ ARMS = ("dynamic", "uniform")
 GUIDANCE_SCALES = (0.0, 1.0, 2.0, 4.0)
 MULTI_METHODS = ("independent", "tps", "tps:T_s=50", "handshake:transition=40")
 OUT = Path(__file__).resolve().parents[1] / "book" / "data" / "m2d2m_budget" / f"embedded-v{VERSION}"
+ETA_OUT = OUT.parents[1] / "m2d2m_eta" / f"embedded-v{VERSION}"
 
 
 def model_name(arm: str, seed: int, steps: int) -> str:
@@ -92,17 +96,61 @@ def score(name: str, profile: str, seed: int = 0) -> dict:
     }
 
 
+def eta_axis(etas: list[float], profile: str, out: Path) -> None:
+    """The η axis at the profile's budget: the dynamic model at each η (``t2m/eta<η>``, training seed 0), scored like
+    a budget; ``<out>/eta<η>.json`` each. The total variation from the uniform process is chapter 08's to compute."""
+    from motionlab.evaluation.t2m import eta_model
+
+    for eta in etas:
+        name = eta_model(eta)
+        path = out / f"eta{eta:g}.json"
+        if path.exists():
+            print(f"{name}: recorded already ({path})", file=sys.stderr)
+            continue
+        print(f"{name}: training (or loading) and scoring", file=sys.stderr)
+        record = {
+            "model": name,
+            "eta": eta,
+            "training_seed": 0,
+            "profile": profile,
+            **_machine(),
+            **score(name, profile),
+        }
+        write_text_atomic(path, json.dumps(record, indent=1) + "\n")
+        print(f"{name}: wrote {path}", file=sys.stderr)
+
+
+def _machine() -> dict:
+    return {
+        "cpu": read_cpu_info().summary,
+        "machine": platform.machine(),
+        "precision": resolve_precision(),
+        "torch_threads": torch.get_num_threads(),
+        "commit": _commit(),
+    }
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--arm", choices=ARMS, required=True)
+    parser.add_argument("--arm", choices=ARMS, help="the arm whose budgets to train (or --etas)")
+    parser.add_argument(
+        "--etas", type=float, nargs="+", help="instead: the dynamic model at each η, the profile's steps"
+    )
     parser.add_argument("--seeds", type=int, nargs="+", default=[0])
     parser.add_argument("--steps", type=int, nargs="+", default=[800, 1600, 3200, 6400, 8000])
     parser.add_argument("--profile", default="laptop", help="the sizes of the models and evaluations (default: laptop)")
     parser.add_argument("--out", type=Path, default=OUT)
     args = parser.parse_args(argv)
+    if (args.arm is None) == (args.etas is None):
+        parser.error("give --arm (the budget study) or --etas (the η axis)")
     if any(s < 1 for s in args.steps) or any(s < 0 for s in args.seeds):
         parser.error("--steps must be >= 1 and --seeds >= 0")
     torch.set_num_threads(1)  # one process per arm on a shared machine
+    if args.etas is not None:
+        out = ETA_OUT if args.out == OUT else args.out
+        out.mkdir(parents=True, exist_ok=True)
+        eta_axis(args.etas, args.profile, out)
+        return 0
     args.out.mkdir(parents=True, exist_ok=True)
     for steps in args.steps:
         for seed in args.seeds:
@@ -119,11 +167,7 @@ def main(argv: list[str] | None = None) -> int:
                 "training_seed": seed,
                 "steps": steps,
                 "profile": args.profile,
-                "cpu": read_cpu_info().summary,
-                "machine": platform.machine(),
-                "precision": resolve_precision(),
-                "torch_threads": torch.get_num_threads(),
-                "commit": _commit(),
+                **_machine(),
                 **result,
             }
             write_text_atomic(path, json.dumps(record, indent=1) + "\n")

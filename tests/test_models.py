@@ -290,3 +290,13 @@ def test_a_multi_motion_replicate_is_the_multi_motion_model_with_another_trainin
     (_, other), *_ = verbs.of(lambda: models.load("t2m/multi-eta0.25-seed2", "ds", "smoke"))
     assert book == again and (book["eta"], book["seed"]) == (MULTI_MOTION_ETA, None)
     assert (other["eta"], other["seed"]) == (MULTI_MOTION_ETA, 2)
+
+
+def test_an_eta_name_is_the_dynamic_model_at_that_eta(monkeypatch):
+    verbs = _Verbs(monkeypatch)
+    (_, kw), *_ = verbs.of(lambda: models.load("t2m/eta2", "ds", "smoke"))
+    assert kw["eta"] == 2.0 and kw["seed"] is None
+    (_, kw), *_ = verbs.of(lambda: models.load("t2m/eta0.125", "ds", "smoke"))
+    assert kw["eta"] == 0.125
+    with pytest.raises(ValueError, match="unknown text-to-motion model 't2m/eta-1'"):
+        models.load("t2m/eta-1", "ds", "smoke")

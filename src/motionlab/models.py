@@ -23,6 +23,7 @@ name                            model
 ``t2m/multi-eta0.25``           the dynamic model at M2D2M's multi-motion η (``-seed<k>``: a training-seed replicate)
 ``t2m/<arm>-seed<k>``           a training-seed replicate of ``dynamic`` or ``uniform`` (chapter 08)
 ``t2m/<arm>-steps<n>``          that model trained for ``n`` steps (also ``-seed<k>-steps<n>``; the budget study)
+``t2m/eta<η>``                  the dynamic model at another η (the η sweeps of chapter 08 and experiments/)
 ``t2m/distance-<kind>``         chapter 08's distance ablation (``l2``, ``cosine``, ``cosine_rank``; full profile)
 ``evaluator``                   the text-motion evaluator of the FID / R-precision protocol
 ==============================  ==================================================================================
@@ -41,6 +42,7 @@ from motionlab.profiles import get_profile
 PROJECTIONS = ("stacked", "repeat", "transposed")
 DISTANCES = ("l2", "cosine", "cosine_rank")
 _T2M = re.compile(r"^t2m/(dynamic|uniform)(?:-seed(\d+))?(?:-steps(\d+))?$")
+_ETA = re.compile(r"^t2m/eta(\d+(?:\.\d+)?)$")  # the dynamic model at any η (training seed 0): η sweeps
 _MULTI = re.compile(r"^t2m/multi-eta0\.25(?:-seed(\d+))?$")
 _SEEDED = re.compile(r"^(vq|rvq)(?:-seed(\d+))?$")  # a tokenizer kind, or a replicate of its training chain
 
@@ -85,13 +87,15 @@ def _text_to_motion(variant: str, dataset, profile: str, device):
     if (multi := _MULTI.match(name)) is not None:  # seed 0 (or none): the book's multi-motion model
         seed = int(multi.group(1) or 0)
         return text_to_motion_for_dataset(dataset, profile, eta=MULTI_MOTION_ETA, seed=seed or None, device=device)
+    if (eta := _ETA.match(name)) is not None:
+        return text_to_motion_for_dataset(dataset, profile, eta=float(eta.group(1)), device=device)
     if variant.startswith("distance-") and variant[len("distance-") :] in DISTANCES:
         return text_to_motion_for_dataset(dataset, profile, distance=variant[len("distance-") :], device=device)
     match = _T2M.match(name)
     if not match:
         raise ValueError(
             f"unknown text-to-motion model {name!r}; use t2m/dynamic, t2m/uniform, t2m/<arm>-seed<k>, "
-            f"t2m/multi-eta0.25 or t2m/distance-{{{','.join(DISTANCES)}}}"
+            f"t2m/multi-eta0.25[-seed<k>], t2m/eta<η> or t2m/distance-{{{','.join(DISTANCES)}}}"
         )
     arm, training_seed, steps = match.group(1), match.group(2), match.group(3)
     if steps is not None:  # another training budget: the profile's model trained for `steps` steps

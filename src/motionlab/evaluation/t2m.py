@@ -39,12 +39,12 @@ DEFAULT_MODEL = "t2m/dynamic"  # the paper's η, training seed 0: the model chap
 TOKEN_METRICS = ("hist_tv", "repeat_rate")  # with token_stats: what guidance does to the sampled codes
 GROUND_TRUTH, RECONSTRUCTION = "Ground Truth", "VQ-VAE (reconstruction)"
 
-# Text-to-motion names :func:`motionlab.models.load` knows, plus ``t2m/eta<η>`` (training seed 0 at any η; the
-# full profile's η sweep reaches η's the training plan has no name for).
+# The text-to-motion names :func:`motionlab.models.load` knows (``t2m/eta<η>``: training seed 0 at any η, for the
+# η sweeps beyond the training plan's names).
 _MODEL_NAME = re.compile(
-    r"^t2m/(?:(?:dynamic|uniform)(?:-seed\d+)?(?:-steps\d+)?|multi-eta0\.25|distance-(?:l2|cosine|cosine_rank)|eta\d+(?:\.\d+)?)$"
+    r"^t2m/(?:(?:dynamic|uniform)(?:-seed\d+)?(?:-steps\d+)?|multi-eta0\.25(?:-seed\d+)?"
+    r"|distance-(?:l2|cosine|cosine_rank)|eta\d+(?:\.\d+)?)$"
 )
-_ETA_NAME = re.compile(r"^t2m/eta(\d+(?:\.\d+)?)$")
 
 
 def seed_replica(arm: str, seed: int) -> str:
@@ -72,7 +72,7 @@ def _check_model(name: Any) -> str:
     if not isinstance(name, str) or not _MODEL_NAME.match(name):
         raise ValueError(
             f"unknown text-to-motion model {name!r}; use t2m/dynamic, t2m/uniform, t2m/<arm>-seed<k>[-steps<n>], "
-            "t2m/multi-eta0.25, t2m/distance-{l2,cosine,cosine_rank} or t2m/eta<η>"
+            "t2m/multi-eta0.25[-seed<k>], t2m/distance-{l2,cosine,cosine_rank} or t2m/eta<η>"
         )
     return name
 
@@ -206,12 +206,7 @@ def _other_split(split: str) -> str:
 
 
 def _load_model(name: str, dataset, profile: str, device: str | None):
-    """A text-to-motion pipeline by name: :func:`motionlab.models.load`, or ``t2m/eta<η>`` (seed 0 at that η)."""
-    match = _ETA_NAME.match(name)
-    if match:
-        from motionlab.diffusion.pipeline import text_to_motion_for_dataset
-
-        return text_to_motion_for_dataset(dataset, profile, eta=float(match.group(1)), device=device)
+    """A text-to-motion pipeline by name (:func:`motionlab.models.load`)."""
     from motionlab import models
 
     return models.load(name, dataset, profile, device=device)
