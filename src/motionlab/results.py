@@ -12,7 +12,7 @@ and a chapter's findings box). This module keeps ``from motionlab import results
 from __future__ import annotations
 
 from motionlab.estimate import format_estimate
-from motionlab.report.budget import BudgetStudy, load_budget
+from motionlab.report.budget import BudgetStudy, EtaAxis, load_budget, load_eta_axis
 from motionlab.report.claims import CLAIMS, FINDINGS, PAPER_NUMBERS, Finding, claim_keys, paper_results
 from motionlab.report.quantities import QUANTITIES, quantity
 from motionlab.report.render import (
@@ -63,6 +63,7 @@ __all__ = [
     "Claim",
     "ClaimRow",
     "ClaimsTable",
+    "EtaAxis",
     "Evidence",
     "Finding",
     "FindingRow",
@@ -82,6 +83,7 @@ __all__ = [
     "judge",
     "load_all",
     "load_budget",
+    "load_eta_axis",
     "load_spread",
     "quantity",
     "record",

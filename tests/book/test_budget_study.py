@@ -113,3 +113,22 @@ def test_budget_curves_and_their_figure(study_folder):
     assert len(ax.lines) >= 3  # two curves and the laptop's budget
     with pytest.raises(ValueError, match="need as many axes"):
         plot_budget(study, {"a": ["tps/jerk_tps"], "b": ["tps/jerk_tps"]}, axes=[ax])
+
+
+def test_the_eta_axis_takes_eta_0_and_the_paper_s_from_the_budget_study(study_folder, tmp_path):
+    from motionlab.report.budget import load_eta_axis
+
+    etas = tmp_path / "eta"
+    etas.mkdir()
+    for eta, jerk in ((2.0, 1.1), (8.0, 1.0)):
+        record = _record("dynamic", 0, LAPTOP, jerk, fid_s4=20.0 + eta) | {"eta": eta, "model": f"t2m/eta{eta:g}"}
+        record["t2m"]["rows"] = {
+            k.replace("t2m/dynamic-seed0-steps800", f"t2m/eta{eta:g}"): v for k, v in record["t2m"]["rows"].items()
+        }
+        (etas / f"eta{eta:g}.json").write_text(json.dumps(record))
+    axis = load_eta_axis("laptop", etas, load_budget("laptop", study_folder))
+    assert axis.etas == [0.0, 0.5, 2.0, 8.0]
+    columns = axis.columns()
+    assert {eta: e.mean for eta, e in columns["FID ↓ (s = 4)"].items()} == {0.0: 12.0, 0.5: 12.0, 2.0: 22.0, 8.0: 28.0}
+    assert columns["TPS transition Jerk"][8.0].mean == 1.0 and columns["TPS transition Jerk"][0.5].mean == 1.2
+    assert load_eta_axis("full", etas) is None

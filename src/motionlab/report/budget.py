@@ -172,4 +172,74 @@ def budget_curves(study: BudgetStudy, keys: Sequence[str], guidance_scale: float
     return curves
 
 
-__all__ = ["BudgetStudy", "Scale", "budget_curves", "budget_results", "load_budget", "scale_statement"]
+ETA_FOLDER = ("book", "data", "m2d2m_eta")
+
+
+@dataclass(frozen=True)
+class EtaAxis:
+    """The dynamic model at several η, each trained for the profile's steps and scored like a budget:
+    ``records[η]`` (η = 0 and the paper's 0.5 are the budget study's two arms at the laptop's steps)."""
+
+    profile: str
+    records: dict[float, dict]
+
+    @property
+    def etas(self) -> list[float]:
+        return sorted(self.records)
+
+    def columns(self, guidance_scale: float = 4.0) -> dict[str, dict[float, Estimate]]:
+        """``{column: {η: Estimate}}``: single-motion FID at ``guidance_scale``, and the transition Jerk of TPS and of
+        independent sampling (chapter 08's η table takes them as columns)."""
+        from motionlab.evaluation import EvaluationTable, multi_claim_cells
+
+        out: dict[str, dict[float, Estimate]] = {}
+        for eta in self.etas:
+            record = self.records[eta]
+            t2m, multi = (EvaluationTable.from_json_dict(record[k]) for k in ("t2m", "multi"))
+            cells = multi_claim_cells(multi)
+            fid = t2m.estimate(f"{record['model']}, s = {guidance_scale:g}", "fid")
+            out.setdefault(f"FID ↓ (s = {guidance_scale:g})", {})[eta] = fid
+            out.setdefault("TPS transition Jerk", {})[eta] = multi.estimate(*cells["jerk_tps"])
+            out.setdefault("independent transition Jerk", {})[eta] = multi.estimate(*cells["jerk_independent"])
+        return out
+
+
+def load_eta_axis(profile: str, folder: str | Path | None = None, budget: BudgetStudy | None = None) -> EtaAxis | None:
+    """The η axis recorded for ``profile`` (None where none was): the η study's files (``folder``, default the
+    repository's ``book/data/m2d2m_eta/embedded-v<N>``), with η = 0 and η = 0.5 from ``budget``'s laptop-steps seed-0
+    records (default: the recorded budget study) where they are not in the folder."""
+    from motionlab.diffusion.training import PAPER_ETA
+
+    if folder is None:
+        from motionlab.data.embedded.generator import VERSION
+
+        from .spread import find_folder
+
+        root = find_folder(ETA_FOLDER)
+        folder = None if root is None else root / f"embedded-v{VERSION}"
+    records = {}
+    for path in sorted(Path(folder).glob("*.json")) if folder is not None else ():
+        record = json.loads(path.read_text())
+        if record.get("profile") == profile:
+            records[float(record["eta"])] = record
+    if not records:
+        return None
+    budget = load_budget(profile) if budget is None else budget
+    if budget is not None:
+        for arm, eta in (("uniform", 0.0), ("dynamic", PAPER_ETA)):
+            key = (arm, 0, budget.laptop_steps)
+            if eta not in records and key in budget.records:
+                records[eta] = budget.records[key]
+    return EtaAxis(profile, records)
+
+
+__all__ = [
+    "BudgetStudy",
+    "EtaAxis",
+    "Scale",
+    "budget_curves",
+    "budget_results",
+    "load_budget",
+    "load_eta_axis",
+    "scale_statement",
+]
