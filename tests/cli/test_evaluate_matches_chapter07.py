@@ -253,7 +253,7 @@ def test_an_eta_name_trains_or_loads_seed_0_at_that_eta(monkeypatch):
         calls.append(kw)
         return "pipe"
 
-    monkeypatch.setattr("motionlab.diffusion.pipeline.text_to_motion_for_dataset", fake)
+    monkeypatch.setattr("motionlab.diffusion.text_to_motion_for_dataset", fake)  # what models.load calls
     assert _load_model("t2m/eta2", "data", "smoke", None) == "pipe" and calls == [{"eta": 2.0, "device": None}]
 
 
