@@ -31,8 +31,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import platform
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -40,10 +38,10 @@ from pathlib import Path
 import torch
 
 from motionlab import models
+from motionlab.build.stamp import machine_stamp
 from motionlab.data.embedded.generator import VERSION
 from motionlab.evaluation import MultiMotionConfig, TextToMotionConfig, evaluate_multi, evaluate_t2m
 from motionlab.io.common import write_text_atomic
-from motionlab.precision import read_cpu_info, resolve_precision
 from motionlab.sizes import chapter_sizes
 
 ARMS = ("dynamic", "uniform")
@@ -55,14 +53,6 @@ ETA_OUT = OUT.parents[1] / "m2d2m_eta" / f"embedded-v{VERSION}"
 
 def model_name(arm: str, seed: int, steps: int) -> str:
     return f"t2m/{arm}-seed{seed}-steps{steps}"
-
-
-def _commit() -> str | None:
-    try:
-        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=True)
-    except (OSError, subprocess.CalledProcessError):
-        return None
-    return out.stdout.strip() or None
 
 
 def score(name: str, profile: str, seed: int = 0) -> dict:
@@ -113,21 +103,11 @@ def eta_axis(etas: list[float], profile: str, out: Path) -> None:
             "eta": eta,
             "training_seed": 0,
             "profile": profile,
-            **_machine(),
+            **machine_stamp(),
             **score(name, profile),
         }
         write_text_atomic(path, json.dumps(record, indent=1) + "\n")
         print(f"{name}: wrote {path}", file=sys.stderr)
-
-
-def _machine() -> dict:
-    return {
-        "cpu": read_cpu_info().summary,
-        "machine": platform.machine(),
-        "precision": resolve_precision(),
-        "torch_threads": torch.get_num_threads(),
-        "commit": _commit(),
-    }
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -167,7 +147,7 @@ def main(argv: list[str] | None = None) -> int:
                 "training_seed": seed,
                 "steps": steps,
                 "profile": args.profile,
-                **_machine(),
+                **machine_stamp(),
                 **result,
             }
             write_text_atomic(path, json.dumps(record, indent=1) + "\n")

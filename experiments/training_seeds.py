@@ -28,8 +28,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import platform
-import subprocess
 import sys
 import time
 from dataclasses import replace
@@ -38,6 +36,7 @@ from pathlib import Path
 import torch
 
 from motionlab import models
+from motionlab.build.stamp import machine_stamp
 from motionlab.data.embedded.generator import VERSION
 from motionlab.evaluation import (
     ReconstructionConfig,
@@ -51,18 +50,9 @@ from motionlab.evaluation import (
 from motionlab.evaluation.multi import paper_config
 from motionlab.evaluation.t2m import seed_replica
 from motionlab.io.common import write_text_atomic
-from motionlab.precision import read_cpu_info, resolve_precision
 from motionlab.sizes import chapter_sizes
 
 OUT = Path(__file__).resolve().parents[1] / "book" / "data" / "training_seeds" / f"embedded-v{VERSION}"
-
-
-def _commit() -> str | None:
-    try:
-        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, check=True)
-    except (OSError, subprocess.CalledProcessError):
-        return None
-    return out.stdout.strip() or None
 
 
 def _discord(training_seed: int, dataset, profile: str) -> tuple[list[str], dict[str, float], list[str]]:
@@ -147,11 +137,7 @@ def main(argv: list[str] | None = None) -> int:
             "study": args.study,
             "training_seed": seed,
             "profile": args.profile,
-            "cpu": read_cpu_info().summary,
-            "machine": platform.machine(),
-            "precision": resolve_precision(),
-            "torch_threads": torch.get_num_threads(),
-            "commit": _commit(),
+            **machine_stamp(),
             **score(args.study, seed, args.profile),
         }
         write_text_atomic(path, json.dumps(record, indent=1) + "\n")

@@ -152,20 +152,13 @@ class ClaimsTable:
 RECORDED = "recorded"  # the default of spread= and budget=: the study recorded for the profile, if any
 
 
-def _spread(spread: TrainingSpread | str | None, profile: str) -> TrainingSpread | None:
-    if spread == RECORDED:
-        return load_spread(profile)
-    if spread is not None and not isinstance(spread, TrainingSpread):
-        raise TypeError(f"spread must be a TrainingSpread, None or {RECORDED!r}, got {type(spread).__name__}")
-    return spread
-
-
-def _budget(budget: BudgetStudy | str | None, profile: str) -> BudgetStudy | None:
-    if budget == RECORDED:
-        return load_budget(profile)
-    if budget is not None and not isinstance(budget, BudgetStudy):
-        raise TypeError(f"budget must be a BudgetStudy, None or {RECORDED!r}, got {type(budget).__name__}")
-    return budget
+def _study(value, kind: type, load, profile: str, name: str):
+    """``spread=`` or ``budget=`` resolved: the study recorded for ``profile``, None, or the one given."""
+    if value == RECORDED:
+        return load(profile)
+    if value is not None and not isinstance(value, kind):
+        raise TypeError(f"{name} must be a {kind.__name__}, None or {RECORDED!r}, got {type(value).__name__}")
+    return value
 
 
 def retraining_phrase(rule, recorded: Mapping[str, Result], spread: TrainingSpread | None) -> str:
@@ -244,7 +237,10 @@ def claims_table(
     verdicts at the budget study's training budgets where it was recorded (``budget=None``: without)."""
     profile = get_profile(profile)
     recorded = load_all(profile) if recorded is None else recorded
-    spread, budget = _spread(spread, profile), _budget(budget, profile)
+    spread, budget = (
+        _study(spread, TrainingSpread, load_spread, profile, "spread"),
+        _study(budget, BudgetStudy, load_budget, profile, "budget"),
+    )
     return ClaimsTable([judge(c, recorded, spread, budget) for c in claims], profile)
 
 
@@ -311,7 +307,7 @@ def chapter_findings(
         raise ValueError(f"unknown chapter prefix {chapter!r}; one of {sorted(CHAPTERS)}")
     profile = get_profile(profile)
     recorded = load_all(profile) if recorded is None else recorded
-    spread = _spread(spread, profile)
+    spread = _study(spread, TrainingSpread, load_spread, profile, "spread")
     rows = []
     for claim in CLAIMS:
         if claim.keys[0].split("/", 1)[0] == chapter:
