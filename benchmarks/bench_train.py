@@ -107,7 +107,9 @@ def evaluator_trainer(dataset, precision: str):
     return evaluator_trainer(model, dataset, vocabulary, config, precision=precision)
 
 
-def training_rounds(name: str, dataset, parts, steps: int) -> dict[str, Callable[[], None]]:
+def training_rounds(
+    name: str, dataset, parts, steps: int, precisions: tuple[str, ...] = PRECISIONS
+) -> dict[str, Callable[[], None]]:
     """``{precision: one round of `steps` training steps}`` for model ``name``."""
 
     def build(precision: str):
@@ -126,7 +128,7 @@ def training_rounds(name: str, dataset, parts, steps: int) -> dict[str, Callable
 
         return run
 
-    return {p: round_of(build(p)) for p in PRECISIONS}
+    return {p: round_of(build(p)) for p in precisions}
 
 
 # -- sampling: the same networks, the precision chosen per call through the run's setting ------------------------
@@ -138,7 +140,9 @@ def with_precision(precision: str, fn: Callable[[], object]) -> Callable[[], Non
     return run
 
 
-def sampler_rounds(name: str, dataset, parts) -> tuple[dict[str, Callable[[], None]], int]:
+def sampler_rounds(
+    name: str, dataset, parts, precisions: tuple[str, ...] = PRECISIONS
+) -> tuple[dict[str, Callable[[], None]], int]:
     """``({precision: one sampling call}, items per call)`` for sampler ``name``."""
     if name == "discord-decode":
         from motionlab.flow import DisCoRDDecoder, discord_config
@@ -172,7 +176,7 @@ def sampler_rounds(name: str, dataset, parts) -> tuple[dict[str, Callable[[], No
             texts = [[clip.captions[0].text for clip in group] for group in instances]
             lengths = [[max(40, clip.length // 4 * 4) for clip in group] for group in instances]
             call, items = (lambda: [multi.generate(t, n, method="tps", seed=0) for t, n in zip(texts, lengths)]), 8
-    return {p: with_precision(p, call) for p in PRECISIONS}, items
+    return {p: with_precision(p, call) for p in precisions}, items
 
 
 def where_time_goes(run: Callable[[], None], top: int) -> list[dict[str, float]]:
@@ -193,14 +197,22 @@ def main() -> None:
     parser.add_argument("--data", default=None, help="dataset folder (default: the embedded dataset, smoke size)")
     parser.add_argument("--json", type=Path, default=None, help="write the records here")
     parser.add_argument(
+        "--precisions",
+        nargs="+",
+        default=list(PRECISIONS),
+        choices=PRECISIONS,
+        help="the precisions to time (default: both; fp32 alone where bf16 has no instructions, e.g. an AVX2-only CPU)",
+    )
+    parser.add_argument(
         "--profile-top",
         type=int,
         default=0,
-        help="also profile one bf16 round and list its N most expensive operators (default: off)",
+        help="also profile one round per precision and list its N most expensive operators (default: off)",
     )
     add_timing_arguments(parser, repeats=5)
     args = parser.parse_args()
     threads = apply_threads(args.threads)
+    precisions = tuple(dict.fromkeys(args.precisions))
     saved = os.environ.get("MOTIONLAB_PRECISION")
     dataset = load_dataset(args.data, profile="smoke")
     cpu = read_cpu_info().summary
@@ -212,9 +224,9 @@ def main() -> None:
     records, lines = [], []
     for name in args.models:
         if name in TRAINED:
-            rounds, per_round, unit = training_rounds(name, dataset, parts, args.steps), args.steps, "steps"
+            rounds, per_round, unit = training_rounds(name, dataset, parts, args.steps, precisions), args.steps, "steps"
         else:
-            (rounds, per_round), unit = sampler_rounds(name, dataset, parts), "items"
+            (rounds, per_round), unit = sampler_rounds(name, dataset, parts, precisions), "items"
         torch.manual_seed(0)
         timings = interleaved(rounds, repeats=args.repeats)
         for precision, t in timings.items():
@@ -236,21 +248,20 @@ def main() -> None:
                 record["items_per_s"] = 1.0 / record["median_s"]
                 record["steps_per_s"] = record["items_per_s"] / per_round  # sampling calls per second
             records.append(record)
-        speedup = ratio(timings["fp32"], timings["bf16"])
-        for r in records[-2:]:
-            r["bf16_speedup_wall"], r["bf16_speedup_cpu"] = speedup["wall_median"], speedup["cpu_median"]
+        both = len(timings) == 2
+        if both:
+            speedup = ratio(timings["fp32"], timings["bf16"])
+            for r in records[-2:]:
+                r["bf16_speedup_wall"], r["bf16_speedup_cpu"] = speedup["wall_median"], speedup["cpu_median"]
         if args.profile_top:
-            records[-1]["profile"] = where_time_goes(rounds["bf16"], args.profile_top)
-            print(
-                f"  {name} bf16, where the time goes: "
-                + ", ".join(f"{e['op']} {e['share']:.0%}" for e in records[-1]["profile"]),
-                flush=True,
-            )
-        lines.append(
-            f"| {name} | {unit} | {spread(timings['fp32'].wall / per_round, 1000, 1)} | "
-            f"{spread(timings['bf16'].wall / per_round, 1000, 1)} | {ratio_text(speedup, 'wall')} | "
-            f"{ratio_text(speedup, 'cpu')} |"
-        )
+            for record, precision in zip(records[-len(timings) :], timings, strict=True):
+                record["profile"] = where_time_goes(rounds[precision], args.profile_top)
+                shares = ", ".join(f"{e['op']} {e['share']:.0%}" for e in record["profile"])
+                print(f"  {name} {precision}, where the time goes: {shares}", flush=True)
+        cells = [spread(timings[p].wall / per_round, 1000, 1) if p in timings else "–" for p in PRECISIONS]
+        ratios = [ratio_text(speedup, "wall"), ratio_text(speedup, "cpu")] if both else ["–", "–"]
+        cpu_ms = [spread(timings[p].cpu / per_round, 1000, 1) if p in timings else "–" for p in PRECISIONS]
+        lines.append(f"| {name} | {unit} | {' | '.join(cells)} | {' | '.join(cpu_ms)} | {' | '.join(ratios)} |")
         print(lines[-1], flush=True)
     if saved is None:
         os.environ.pop("MOTIONLAB_PRECISION", None)
@@ -258,9 +269,12 @@ def main() -> None:
         os.environ["MOTIONLAB_PRECISION"] = saved
     print(
         f"\n{cpu}, {platform.machine()}, {threads} thread(s), {args.repeats} rounds; ms per step or item, "
-        "median (min–max) of wall time; speed-up = fp32 / bf16 per round"
+        "median (min–max) of wall and of CPU time; speed-up = fp32 / bf16 per round"
     )
-    print("| model | per | fp32 ms | bf16 ms | bf16 speed-up (wall) | (CPU) |\n|---|---|---|---|---|---|")
+    print(
+        "| model | per | fp32 ms | bf16 ms | fp32 CPU ms | bf16 CPU ms | bf16 speed-up (wall) | (CPU) |\n"
+        "|---|---|---|---|---|---|---|---|"
+    )
     print("\n".join(lines))
     write_records(args.json, records)
 
