@@ -10,12 +10,15 @@ own evaluation at the profile's sizes:
   which measures the machine rather than the models);
 - ``m2d2m``: the text-to-motion models behind M2D2M's claims on the book's VQ tokens, ``t2m/multi-eta0.25-seed<k>``
   (chapter 09's multi-motion table), ``t2m/uniform-seed<k>`` (its TPS row, Table 5) and ``t2m/dynamic-seed<k>``
-  (chapter 07's guidance claim, s = 0 against s = 4).
+  (chapter 07's guidance claim, s = 0 against s = 4);
+- ``transitions``: chapter 08's two arms, ``t2m/dynamic-seed<k>`` against ``t2m/uniform-seed<k>`` (M2D2M's Table 3
+  claim, single motions at s = 4), scored with chapter 08's evaluation. The book trains seed 0 of each arm only.
 
 ::
 
     python experiments/training_seeds.py --study discord --seeds 0 1 2   # laptop: ~12 CPU-min per new seed (bf16)
     python experiments/training_seeds.py --study m2d2m --seeds 0 1 2     # laptop: ~10 CPU-min per seed
+    python experiments/training_seeds.py --study transitions --seeds 0 1 2   # laptop: ~9 CPU-min per new seed (fp32)
 
 Each seed's numbers go to ``<out>/<study>-<profile>-seed<k>.json`` (written atomically; an existing one is skipped)
 with the data, the machine, the precision, the commit and the time spent: ``{"values": {"discord/sjpe_rf": ...}}``,
@@ -99,7 +102,23 @@ def _m2d2m(training_seed: int, dataset, profile: str) -> tuple[list[str], dict[s
     return [multi, uniform, dynamic], values, commands
 
 
-STUDIES = {"discord": _discord, "m2d2m": _m2d2m}
+def _transitions(training_seed: int, dataset, profile: str) -> tuple[list[str], dict[str, float], list[str]]:
+    """Chapter 08's comparison at ``training_seed``: the dynamic arm (the paper's η) against the uniform one (η = 0),
+    single motions at s = 4, scored with chapter 08's evaluation (its sizes, the two arms alone). The book trains seed 0
+    of each arm; this study's seeds give the spread its verdict adds."""
+    uniform, dynamic = seed_replica("uniform", training_seed), seed_replica("dynamic", training_seed)
+    _train([uniform, dynamic], dataset, profile)
+    config = TextToMotionConfig.from_sizes(chapter_sizes(profile).transitions, models=(uniform, dynamic))
+    table = evaluate_t2m(dataset, config, profile)
+    values = {
+        f"transitions/{metric}_{arm}": table.estimate(config.row(name), metric).mean
+        for arm, name in (("dynamic", dynamic), ("uniform", uniform))
+        for metric in ("fid", "top3")
+    }
+    return [uniform, dynamic], values, [config.command_line(profile)]
+
+
+STUDIES = {"discord": _discord, "m2d2m": _m2d2m, "transitions": _transitions}
 
 
 def _train(names: list[str], dataset, profile: str) -> None:

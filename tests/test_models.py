@@ -17,6 +17,7 @@ from motionlab.build.book_models import book_dataset, book_jobs, projection_conf
 from motionlab.cli import _trained_model
 from motionlab.diffusion.training import PAPER_ETA
 from motionlab.multimotion import MULTI_MOTION_ETA
+from motionlab.sizes import DISCORD_ABLATION, DISCORD_VQ
 from motionlab.train import cache
 
 # The functions models.load is built on, where models.py imports them from (at call time).
@@ -55,8 +56,9 @@ def _old_recipe(name: str, profile: str, seed: int, flow: dict | None) -> None:
         tokenizer = tokenizers.tokenizer_for_dataset(tokens, dataset, profile)
         if projection:
             config = projection_config(profile, tokenizer, projection, seed)
-        else:
-            config = flows.discord_config(profile, tokenizer=tokenizer, seed=seed, **(flow or {}))
+        else:  # discord/vq's laptop key changed on purpose: it trains its own, smaller budget (sizes.DISCORD_VQ)
+            budget = DISCORD_VQ.get(profile, {}) if tokens == "vq" else {}
+            config = flows.discord_config(profile, tokenizer=tokenizer, seed=seed, **{**budget, **(flow or {})})
         flows.train_or_load_discord(dataset, tokenizer, profile, config=config)
     elif kind == "t2m":
         eta, training_seed, distance = OLD_T2M[variant]
@@ -127,6 +129,47 @@ def test_plan_recipes_go_through_models_load(monkeypatch):
     assert by_name["discord/vq"][1] == {"seed": 0, "prediction": "x"}
     assert by_name["discord/rvq-stacked"][1] == {"seed": 0}  # the ablation keeps the profile's decoder options
     assert by_name["toy_flow/ring"][0] is None  # the toy flows never load the motion data
+
+
+@pytest.mark.parametrize("profile", ["smoke", "laptop", "full"])
+def test_the_vq_tokens_decoder_trains_its_own_budget_and_the_rvq_one_the_profiles(monkeypatch, profile):
+    from motionlab.flow import discord_config
+
+    verbs = _Verbs(monkeypatch)
+    dataset = SimpleNamespace(key="data")
+
+    def steps(name: str, **overrides) -> int:
+        (call,) = [
+            args
+            for verb, args in verbs.of(lambda: models.load(name, dataset, profile, **overrides))
+            if verb == "train_or_load_discord"
+        ]
+        return call["config"].train_steps
+
+    full_budget = discord_config(profile).train_steps
+    assert steps("discord/rvq") == steps("discord/rvq-seed1") == full_budget  # chapter 05's claims and their study
+    assert (
+        steps("discord/vq") == steps("discord/vq-seed1") == DISCORD_VQ.get(profile, {}).get("train_steps", full_budget)
+    )
+    assert steps("discord/vq", train_steps=77) == 77  # an explicit override still wins
+    if profile == "laptop":  # chapter 09's decoder costs what one of chapter 04's ablation decoders costs
+        assert DISCORD_VQ["laptop"] == DISCORD_ABLATION["laptop"] and steps("discord/vq") < full_budget
+
+
+def test_the_multi_motion_evaluation_decodes_with_the_books_vq_decoder_by_name(monkeypatch):
+    from motionlab.evaluation import multi
+    from motionlab.metrics import evaluator_training
+
+    seen = []
+    flow = SimpleNamespace(sample_steps=8, solver="midpoint")
+    monkeypatch.setattr(
+        models, "load", lambda name, *a, **kw: seen.append(name) or SimpleNamespace(name=name, config=flow)
+    )
+    monkeypatch.setattr(evaluator_training, "load_or_train_evaluator", lambda *a, **kw: "evaluator")
+    config = multi.MultiMotionConfig(decoder="discord", model="t2m/uniform")
+    _, _, decoder, _ = multi._models("dataset", config, "smoke", None, False)
+    assert seen == ["t2m/uniform", "discord/vq"]  # chapter 09's decoder, not a second one of the default config
+    assert decoder.decoder.name == "discord/vq"
 
 
 def _folders(run, monkeypatch) -> list[str]:

@@ -288,9 +288,9 @@ def _generate(args: argparse.Namespace) -> int:
         pipe = text_to_motion_for_dataset(dataset, profile, device=args.device)
         decoder = None
         if args.decoder == "discord":
-            from .flow import train_or_load_discord
+            from . import models
 
-            decoder = train_or_load_discord(dataset, pipe.tokenizer, profile, device=args.device)
+            decoder = models.load("discord/vq", dataset, profile, device=args.device)
     if len(texts) == 1:
         features = pipe.generate(texts, lengths, seed=args.seed, decoder=decoder)[0]
     else:  # several actions: Two-Phase Sampling (M2D2M Algorithm 1)

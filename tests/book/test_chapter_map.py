@@ -10,6 +10,7 @@ from pathlib import Path
 import yaml
 
 from motionlab.build.book_models import CHAPTER_MODELS, book_jobs, chapter_costs
+from motionlab.sizes import chapter_sizes
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -22,11 +23,18 @@ def _toc_chapters() -> list[str]:
 
 def test_every_chapter_names_its_models_and_every_model_serves_a_chapter():
     assert list(CHAPTER_MODELS) == _toc_chapters()
+    replicates = {f"t2m/{arm}-seed{k}" for arm in ("dynamic", "uniform") for k in (1, 2)}
     for profile in ("smoke", "laptop"):
         jobs = {job.name for job in book_jobs(profile)}
         loaded = {m for models in CHAPTER_MODELS.values() for m in models}
-        assert loaded <= jobs, sorted(loaded - jobs)
+        # chapter 08 loads the training-seed replicates its profile's sizes name, and only those are trained
+        seeds = chapter_sizes(profile).transitions.training_seeds[1:]
+        assert {m for m in replicates if m in jobs} == {
+            f"t2m/{a}-seed{k}" for a in ("dynamic", "uniform") for k in seeds
+        }
+        assert loaded - (replicates - jobs) <= jobs, sorted(loaded - jobs)
         assert jobs <= loaded, f"trained but loaded by no chapter: {sorted(jobs - loaded)}"
+    assert chapter_sizes("laptop").transitions.training_seeds == (0,)  # the laptop reads the study's replicates
 
 
 def test_a_model_is_charged_to_the_first_chapter_that_loads_it():

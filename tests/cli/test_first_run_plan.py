@@ -23,7 +23,7 @@ def test_generate_on_an_empty_cache_announces_every_model_in_order(empty_home, c
     expected = (
         ESTIMATES_S["laptop"]["data"]
         + ESTIMATES_S["laptop"]["tokenizer"]
-        + ESTIMATES_S["laptop"]["discord"]
+        + ESTIMATES_S["laptop"]["discord_short"]  # discord/vq: the short budget
         + ESTIMATES_S["laptop"]["t2m"]
     ) / 60
     assert f"{expected:.1f} min of CPU" in err and "add --profile smoke" in err

@@ -258,9 +258,7 @@ def _models(dataset, cfg: MultiMotionConfig, profile: str, device, progress: boo
     evaluator = load_or_train_evaluator(dataset, profile, device=device, progress=progress)
     if cfg.decoder != "discord":
         return pipe, evaluator, None, "VQ decoder"
-    from motionlab.flow import train_or_load_discord
-
-    flow = train_or_load_discord(dataset, pipe.tokenizer, profile, device=device, progress=progress)
+    flow = models.load("discord/vq", dataset, profile, device=device)  # the decoder of the pipeline's VQ tokens
     return (
         pipe,
         evaluator,

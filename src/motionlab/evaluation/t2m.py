@@ -257,9 +257,9 @@ def evaluate_t2m(
             K = pipe.tokenizer.codebook_size
             if m == 0:  # what every model shares: the VQ tokenizer, hence its decoders and the real tokens
                 if cfg.decoder == "discord":
-                    from motionlab.flow import train_or_load_discord
+                    from motionlab import models
 
-                    flow = train_or_load_discord(dataset, pipe.tokenizer, profile, device=device, progress=progress)
+                    flow = models.load("discord/vq", dataset, profile, device=device)  # of the pipeline's VQ tokens
                     decoder = _FlowSteps(flow, cfg.steps, cfg.solver)
                     decoder_name = f"DisCoRD ({_flow_label(flow, cfg.steps, cfg.solver)})"
                 if cfg.reconstruction:
@@ -303,6 +303,75 @@ def evaluate_t2m(
     )
     table.notes.append(_sampling_note(cfg, decoder_name))
     return table
+
+
+ARMS = ("uniform", "dynamic")  # chapter 08's arms: η = 0 (VQ-Diffusion) and the paper's η
+
+
+@dataclass(frozen=True)
+class ArmsComparison:
+    """Dynamic against uniform transitions (M2D2M Table 3) from a table that scored both arms, with the variance
+    between training runs where it was measured (:func:`compare_arms`).
+
+    ``fid``/``top3``: each arm's number, the mean over the table's training seeds (Student's t over the seeds) or, at
+    one seed, that model's (its repeats' interval). ``same_seed``: dynamic − uniform FID at training seed 0, paired per
+    repeat (the evaluation's noise only). ``seed_gaps``: per arm, FID of training seed ``gap_seeds[1]`` − seed
+    ``gap_seeds[0]`` (paired per repeat when the table has both; the study's numbers, without an interval,
+    otherwise). ``training``: dynamic − uniform FID with the training runs' variance (t over the table's seeds, or
+    seed 0's paired difference with the study's spread joined in quadrature, the claims table's rule); None where
+    neither was measured. ``source`` says where the training variance comes from.
+    """
+
+    fid: dict[str, Estimate]
+    top3: dict[str, Estimate]
+    same_seed: Estimate
+    seed_gaps: dict[str, Estimate]
+    gap_seeds: tuple[int, int] | None
+    training: Estimate | None
+    source: str
+
+
+def compare_arms(table: EvaluationTable, seeds: tuple[int, ...] = (0,), spread: Any = None) -> ArmsComparison:
+    """Chapter 08's comparison of the two arms in ``table`` (rows named by :func:`seed_replica`) at training ``seeds``
+    (seed 0 first). With one seed the training variance comes from ``spread``, the training-seed study
+    (:func:`motionlab.report.load_spread`, keys ``transitions/fid_dynamic`` and ``transitions/fid_uniform``)."""
+    from motionlab.estimate import mean_ci
+
+    seeds = tuple(int(s) for s in seeds)
+    if not seeds or seeds[0] != 0 or len(set(seeds)) != len(seeds):
+        raise ValueError(f"seeds must be distinct and start with 0, got {seeds}")
+    same_seed = table.paired(seed_replica("dynamic", 0), seed_replica("uniform", 0), "fid")
+    if len(seeds) > 1:  # replicates in the table: the training variance measured here
+        per_seed = {
+            m: {a: [table.estimate(seed_replica(a, s), m).mean for s in seeds] for a in ARMS} for m in ("fid", "top3")
+        }
+        return ArmsComparison(
+            fid={a: mean_ci(v) for a, v in per_seed["fid"].items()},
+            top3={a: mean_ci(v) for a, v in per_seed["top3"].items()},
+            same_seed=same_seed,
+            seed_gaps={a: table.paired(seed_replica(a, seeds[1]), seed_replica(a, 0), "fid") for a in ARMS},
+            gap_seeds=(0, seeds[1]),
+            training=mean_ci(
+                [d - u for d, u in zip(per_seed["fid"]["dynamic"], per_seed["fid"]["uniform"], strict=True)]
+            ),
+            source=f"{len(seeds)} training seeds per arm, trained and scored here",
+        )
+    fid = {a: table.estimate(seed_replica(a, 0), "fid") for a in ARMS}
+    top3 = {a: table.estimate(seed_replica(a, 0), "top3") for a in ARMS}
+    keys = ("transitions/fid_dynamic", "transitions/fid_uniform")
+    spread_d = spread.difference(*keys) if spread is not None else None
+    if spread_d is None:
+        return ArmsComparison(
+            fid, top3, same_seed, {}, None, None, "training seed 0 only: no training-seed study on this data"
+        )
+    study = spread.seeds(*keys)  # sorted, at least MIN_SEEDS of them
+    gaps = {
+        a: Estimate(spread.values[f"transitions/fid_{a}"][study[1]] - spread.values[f"transitions/fid_{a}"][study[0]])
+        for a in ARMS
+    }
+    training = Estimate(same_seed.mean, math.hypot(same_seed.half_width, spread_d.half_width), spread_d.n)
+    source = f"the training-seed study's {len(study)} seeds per arm ({', '.join(map(str, study))})"
+    return ArmsComparison(fid, top3, same_seed, gaps, (study[0], study[1]), training, source)
 
 
 def _timed(recorder, decoder, timing: dict, bar, repeats: int, where: str) -> Callable:
@@ -360,4 +429,14 @@ def _sampling_note(cfg: TextToMotionConfig, decoder_name: str) -> str:
     return f"Generated by {', '.join(cfg.models)}: {scale}, {steps}{top_p}, decoded by the {decoder_name}."
 
 
-__all__ = ["DEFAULT_MODEL", "TOKEN_METRICS", "TextToMotionConfig", "eta_model", "evaluate_t2m", "seed_replica"]
+__all__ = [
+    "ARMS",
+    "DEFAULT_MODEL",
+    "TOKEN_METRICS",
+    "ArmsComparison",
+    "TextToMotionConfig",
+    "compare_arms",
+    "eta_model",
+    "evaluate_t2m",
+    "seed_replica",
+]

@@ -264,9 +264,13 @@ CLAIMS: tuple[Claim, ...] = (
                     "transitions/kbeta_bar_t",
                 ),
             ),
-            Evidence("FID dynamic − uniform, interval over training seeds", ("transitions/fid_dynamic_minus_uniform",)),
             Evidence(
-                "FID gap between two training seeds of the same model (paired over repeats)",
+                "FID dynamic − uniform with the training variance (t over the training seeds, or training seed 0 "
+                "with the training-seed study's spread)",
+                ("transitions/fid_dynamic_minus_uniform",),
+            ),
+            Evidence(
+                "FID gap between two training seeds of the same model (paired over repeats, or the study's numbers)",
                 ("transitions/fid_seed_gap_dynamic", "transitions/fid_seed_gap_uniform"),
             ),
         ),

@@ -1,0 +1,92 @@
+"""``compare_arms``: chapter 08's dynamic-vs-uniform comparison with the training variance measured in the chapter (its
+own seed replicates) or read from the training-seed study (seed 0 alone in the chapter)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.special import stdtrit
+
+from motionlab.estimate import Estimate, mean_ci
+from motionlab.evaluation.t2m import compare_arms, seed_replica
+from motionlab.report.spread import TrainingSpread
+
+
+class _Table:
+    """What compare_arms reads of an EvaluationTable: per-row estimates and per-repeat samples."""
+
+    def __init__(self, samples: dict[str, dict[str, list[float]]]):
+        self.samples = samples
+
+    def estimate(self, row: str, metric: str) -> Estimate:
+        return mean_ci(self.samples[row][metric])
+
+    def paired(self, a: str, b: str, metric: str) -> Estimate:
+        return mean_ci(np.subtract(self.samples[a][metric], self.samples[b][metric]))
+
+
+def _table(seeds, fid: dict[tuple[str, int], list[float]]) -> _Table:
+    return _Table(
+        {
+            seed_replica(arm, s): {"fid": fid[(arm, s)], "top3": [0.5 + 0.01 * s] * 3}
+            for arm in ("uniform", "dynamic")
+            for s in seeds
+        }
+    )
+
+
+def test_with_replicates_in_the_table_the_training_variance_is_t_over_the_seeds():
+    fid = {
+        ("dynamic", 0): [10.0, 11.0, 12.0],
+        ("uniform", 0): [12.0, 12.5, 13.0],
+        ("dynamic", 1): [13.0, 13.0, 13.0],
+        ("uniform", 1): [11.0, 11.5, 12.0],
+        ("dynamic", 2): [9.0, 9.5, 10.0],
+        ("uniform", 2): [10.0, 10.0, 10.0],
+    }
+    arms = compare_arms(_table((0, 1, 2), fid), (0, 1, 2))
+    assert arms.fid["dynamic"].mean == pytest.approx(np.mean([11.0, 13.0, 9.5]))
+    assert arms.fid["dynamic"].n == 3  # one value per training seed
+    per_seed = [11.0 - 12.5, 13.0 - 11.5, 9.5 - 10.0]
+    assert arms.training == mean_ci(per_seed)
+    assert arms.same_seed == mean_ci([-2.0, -1.5, -1.0])
+    assert arms.gap_seeds == (0, 1)
+    assert arms.seed_gaps["uniform"] == mean_ci([-1.0, -1.0, -1.0])
+    assert "trained and scored here" in arms.source
+
+
+def test_with_seed_0_alone_the_study_supplies_the_spread():
+    fid = {("dynamic", 0): [10.0, 11.0, 12.0], ("uniform", 0): [12.0, 12.5, 13.0]}
+    study = {
+        "transitions/fid_dynamic": {0: 11.0, 1: 13.0, 2: 9.5},
+        "transitions/fid_uniform": {0: 12.5, 1: 11.5, 2: 10.0},
+    }
+    spread = TrainingSpread("laptop", "embedded-test", study)
+    arms = compare_arms(_table((0,), fid), (0,), spread)
+    assert arms.fid["uniform"] == mean_ci([12.0, 12.5, 13.0])  # the model's repeats, not a mean over seeds
+    same = mean_ci([-2.0, -1.5, -1.0])
+    d = np.array([11.0 - 12.5, 13.0 - 11.5, 9.5 - 10.0])
+    spread_half = stdtrit(2, 0.975) * d.std(ddof=1)
+    assert arms.same_seed == same
+    assert arms.training.mean == pytest.approx(same.mean)  # seed 0's difference ...
+    assert arms.training.half_width == pytest.approx(math.hypot(same.half_width, spread_half))  # ... widened
+    assert arms.gap_seeds == (0, 1)
+    assert arms.seed_gaps == {"uniform": Estimate(11.5 - 12.5), "dynamic": Estimate(13.0 - 11.0)}
+    assert "study" in arms.source and "0, 1, 2" in arms.source
+
+
+def test_without_replicates_or_study_there_is_no_training_variance():
+    fid = {("dynamic", 0): [10.0, 11.0, 12.0], ("uniform", 0): [12.0, 12.5, 13.0]}
+    too_few = TrainingSpread("laptop", "x", {"transitions/fid_dynamic": {0: 1.0}, "transitions/fid_uniform": {0: 2.0}})
+    for spread in (None, too_few):
+        arms = compare_arms(_table((0,), fid), (0,), spread)
+        assert arms.training is None and arms.seed_gaps == {} and arms.gap_seeds is None
+        assert arms.same_seed == mean_ci([-2.0, -1.5, -1.0])
+
+
+@pytest.mark.parametrize("seeds", [(), (1, 2), (0, 0)])
+def test_seeds_must_start_with_0_and_be_distinct(seeds):
+    with pytest.raises(ValueError, match="start with 0"):
+        compare_arms(_table((0,), {("dynamic", 0): [1.0], ("uniform", 0): [1.0]}), seeds)
