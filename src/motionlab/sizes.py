@@ -336,9 +336,9 @@ DISCORD_ABLATION = {"smoke": {}, "laptop": {"train_steps": 1150, "warmup_steps":
 # costs 29% of that. The ``full`` profile trains it like chapter 05's.
 DISCORD_VQ = {"smoke": {}, "laptop": DISCORD_ABLATION["laptop"]}
 
-# TransformerConfig (diffusion/transformer.py), the denoiser. Laptop: about 6 minutes on one CPU core (800 steps of
-# ~0.42 s; the book trains ten such models, see motionlab.build.book_models). The learning rates are larger than the
-# paper's 2e-4: these runs are hundreds of steps, not 110 epochs.
+# TransformerConfig (diffusion/transformer.py), the denoiser. Laptop: about 3 minutes on one core of an AVX2-only CPU in
+# fp32 (800 steps of ~0.22 s; the laptop book trains three such models, see motionlab.build.book_models). The learning
+# rates are larger than the paper's 2e-4: these runs are hundreds of steps, not 110 epochs.
 DENOISER = {
     "smoke": {
         "n_layers": 2,

@@ -30,11 +30,12 @@ from ..sizes import DISCORD_ABLATION, chapter_sizes
 from ..train.cache import NotCached, cache_probe
 from .plan import Job
 
-# Training CPU seconds per model on one core of the reference machine (2 cores, two 1-thread workers), from
-# `motionlab train book --record` (book/data/build_times/laptop-training.json; laptop: a tokenizer step 0.25 s x 2,000,
-# a DisCoRD step 0.475 s, x 4,000 for chapter 05's decoder and x 1,150 for the short budget of chapter 04's ablation
-# and chapter 09's VQ decoder, a diffusion step 0.32 s x 800); they drive the plan line and the progress estimates,
-# nothing else.
+# Training CPU seconds per model on one core of the reference machine, the slowest CPU of this project's kind (an
+# AMD EPYC Zen 3 with AVX2 only, 2 cores, two 1-thread workers, fp32), from `motionlab train book --record`
+# (book/data/build_times/laptop-training.json; laptop: a tokenizer step 0.15 s x 2,000, a DisCoRD step 0.31 s x 4,000
+# for chapter 05's decoder and 0.38 s x 1,150 for the short budget of chapter 04's ablation and chapter 09's VQ
+# decoder, a diffusion step 0.22 s x 800). Faster CPUs finish sooner; the numbers drive the plan line and the progress
+# estimates, nothing else.
 ESTIMATES_S: dict[str, dict[str, float]] = {
     "smoke": {
         "data": 8,
@@ -46,13 +47,13 @@ ESTIMATES_S: dict[str, dict[str, float]] = {
         "t2m": 15,
     },
     "laptop": {
-        "data": 90,
-        "tokenizer": 510,
-        "toy_flow": 60,
-        "evaluator": 185,
-        "discord": 1950,
-        "discord_short": 560,
-        "t2m": 260,
+        "data": 60,
+        "tokenizer": 305,
+        "toy_flow": 25,
+        "evaluator": 170,
+        "discord": 1240,
+        "discord_short": 440,
+        "t2m": 180,
     },
     "full": {
         "data": 1500,

@@ -98,8 +98,8 @@ def _describe(todo: Sequence[Job], workers: int) -> str:
 
     precision, why = explain_precision(None, get_device(None))
     return (
-        f"to train first ({len(todo)} models in {precision}, {why}; {format_minutes(total)} of CPU on a 2-core "
-        f"reference machine, {when}): {names}"
+        f"to train first ({len(todo)} model{'s' if len(todo) != 1 else ''} in {precision}, {why}; "
+        f"{format_minutes(total)} of CPU at the pace of the slowest CPU measured, {when}): {names}"
     )
 
 
