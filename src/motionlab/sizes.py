@@ -178,7 +178,7 @@ TRANSITIONS = {
         "num_steps": 25,
         # Seed 0 of each arm only: the replicates are the training-seed study's (experiments/training_seeds.py
         # --study transitions, recorded under book/data/training_seeds/), whose spread joins the verdict. Training
-        # and scoring them in every build cost 19 of its 150 CPU-minutes on an AVX2-only CPU in fp32.
+        # and scoring them in every build cost 16 of its 135 CPU-minutes on an AVX2-only CPU in fp32 (2026-12-03).
         "training_seeds": (0,),
         "sweep_etas": (0.0, 0.25, 0.5),
         "distance_ablation": False,
@@ -331,9 +331,9 @@ DISCORD_DECODER = {
 DISCORD_ABLATION = {"smoke": {}, "laptop": {"train_steps": 1150, "warmup_steps": 57}}
 # The DisCoRD decoder of the single-codebook VQ tokens (``discord/vq``: chapter 09 and ``--decoder discord``), on top
 # of DISCORD_DECODER. No claim is judged on it: it shows that DisCoRD decodes M2D2M's tokens unchanged. At chapter 05's
-# 4,000 steps it cost 28.5 of the laptop build's 150 CPU-minutes on an AVX2-only CPU in fp32; at the ablation's budget
-# it keeps the chapter's comparison (its own decoder against the VQ decoder, inside the actions and at the seams) and
-# costs 29% of that. The ``full`` profile trains it like chapter 05's.
+# 4,000 steps it cost 19.8 of the laptop build's 135 CPU-minutes on an AVX2-only CPU in fp32 (2026-12-03); at the
+# ablation's budget it keeps the chapter's comparison (its own decoder against the VQ decoder, inside the actions and at
+# the seams) and costs 8.4. The ``full`` profile trains it like chapter 05's.
 DISCORD_VQ = {"smoke": {}, "laptop": DISCORD_ABLATION["laptop"]}
 
 # TransformerConfig (diffusion/transformer.py), the denoiser. Laptop: about 3 minutes on one core of an AVX2-only CPU in
