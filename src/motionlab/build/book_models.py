@@ -16,7 +16,7 @@ everything cached after the plan ran.
 
 ``discord/rvq`` is chapter 05's decoder, the one DisCoRD's claims are judged on; it gets the profile's whole flow
 budget. Chapter 04's three projections compare with each other, not with the feed-forward decoder, and chapter 09's
-``discord/vq`` carries no claim, so in the laptop profile those four train a quarter of it (``DISCORD_ABLATION`` and
+``discord/vq`` carries no claim, so in the laptop profile those four train under a third of it (``DISCORD_ABLATION`` and
 ``DISCORD_VQ`` in :mod:`motionlab.sizes`, where the reasons are).
 """
 
