@@ -52,7 +52,7 @@ def test_with_replicates_in_the_table_the_training_variance_is_t_over_the_seeds(
     per_seed = [11.0 - 12.5, 13.0 - 11.5, 9.5 - 10.0]
     assert arms.training == mean_ci(per_seed)
     assert arms.same_seed == mean_ci([-2.0, -1.5, -1.0])
-    assert arms.gap_seeds == (0, 1)
+    assert (arms.gap_label, arms.gap_source) == ("seed 1 − seed 0", "paired per repeat")
     assert arms.seed_gaps["uniform"] == mean_ci([-1.0, -1.0, -1.0])
     assert "trained and scored here" in arms.source
 
@@ -72,7 +72,7 @@ def test_with_seed_0_alone_the_study_supplies_the_spread():
     assert arms.same_seed == same
     assert arms.training.mean == pytest.approx(same.mean)  # seed 0's difference ...
     assert arms.training.half_width == pytest.approx(math.hypot(same.half_width, spread_half))  # ... widened
-    assert arms.gap_seeds == (0, 1)
+    assert (arms.gap_label, arms.gap_source) == ("seed 1 − seed 0", "the training-seed study's numbers")
     assert arms.seed_gaps == {"uniform": Estimate(11.5 - 12.5), "dynamic": Estimate(13.0 - 11.0)}
     assert "study" in arms.source and "0, 1, 2" in arms.source
 
@@ -82,7 +82,7 @@ def test_without_replicates_or_study_there_is_no_training_variance():
     too_few = TrainingSpread("laptop", "x", {"transitions/fid_dynamic": {0: 1.0}, "transitions/fid_uniform": {0: 2.0}})
     for spread in (None, too_few):
         arms = compare_arms(_table((0,), fid), (0,), spread)
-        assert arms.training is None and arms.seed_gaps == {} and arms.gap_seeds is None
+        assert arms.training is None and arms.seed_gaps == {} and arms.gap_label == arms.gap_source == ""
         assert arms.same_seed == mean_ci([-2.0, -1.5, -1.0])
 
 

@@ -315,18 +315,19 @@ class ArmsComparison:
 
     ``fid``/``top3``: each arm's number, the mean over the table's training seeds (Student's t over the seeds) or, at
     one seed, that model's (its repeats' interval). ``same_seed``: dynamic − uniform FID at training seed 0, paired per
-    repeat (the evaluation's noise only). ``seed_gaps``: per arm, FID of training seed ``gap_seeds[1]`` − seed
-    ``gap_seeds[0]`` (paired per repeat when the table has both; the study's numbers, without an interval,
-    otherwise). ``training``: dynamic − uniform FID with the training runs' variance (t over the table's seeds, or
-    seed 0's paired difference with the study's spread joined in quadrature, the claims table's rule); None where
-    neither was measured. ``source`` says where the training variance comes from.
+    repeat (the evaluation's noise only). ``seed_gaps``: per arm, FID of one training seed − another, the pair named by
+    ``gap_label`` (``"seed 1 − seed 0"``), measured as ``gap_source`` says (paired per repeat when the table has both;
+    the study's numbers, without an interval, otherwise). ``training``: dynamic − uniform FID with the training runs'
+    variance (t over the table's seeds, or seed 0's paired difference with the study's spread joined in quadrature,
+    the claims table's rule); None where neither was measured. ``source`` says where the training variance comes from.
     """
 
     fid: dict[str, Estimate]
     top3: dict[str, Estimate]
     same_seed: Estimate
     seed_gaps: dict[str, Estimate]
-    gap_seeds: tuple[int, int] | None
+    gap_label: str
+    gap_source: str
     training: Estimate | None
     source: str
 
@@ -350,7 +351,8 @@ def compare_arms(table: EvaluationTable, seeds: tuple[int, ...] = (0,), spread: 
             top3={a: mean_ci(v) for a, v in per_seed["top3"].items()},
             same_seed=same_seed,
             seed_gaps={a: table.paired(seed_replica(a, seeds[1]), seed_replica(a, 0), "fid") for a in ARMS},
-            gap_seeds=(0, seeds[1]),
+            gap_label=f"seed {seeds[1]} − seed 0",
+            gap_source="paired per repeat",
             training=mean_ci(
                 [d - u for d, u in zip(per_seed["fid"]["dynamic"], per_seed["fid"]["uniform"], strict=True)]
             ),
@@ -362,16 +364,18 @@ def compare_arms(table: EvaluationTable, seeds: tuple[int, ...] = (0,), spread: 
     spread_d = spread.difference(*keys) if spread is not None else None
     if spread_d is None:
         return ArmsComparison(
-            fid, top3, same_seed, {}, None, None, "training seed 0 only: no training-seed study on this data"
+            fid, top3, same_seed, {}, "", "", None, "training seed 0 only: no training-seed study on this data"
         )
     study = spread.seeds(*keys)  # sorted, at least MIN_SEEDS of them
     gaps = {
         a: Estimate(spread.values[f"transitions/fid_{a}"][study[1]] - spread.values[f"transitions/fid_{a}"][study[0]])
         for a in ARMS
     }
-    training = Estimate(same_seed.mean, math.hypot(same_seed.half_width, spread_d.half_width), spread_d.n)
+    # another training run moves seed 0's difference by a zero-centred amount of the study's spread: in quadrature
+    training = same_seed.minus(Estimate(0.0, spread_d.half_width, spread_d.n))
     source = f"the training-seed study's {len(study)} seeds per arm ({', '.join(map(str, study))})"
-    return ArmsComparison(fid, top3, same_seed, gaps, (study[0], study[1]), training, source)
+    label, how = f"seed {study[1]} − seed {study[0]}", "the training-seed study's numbers"
+    return ArmsComparison(fid, top3, same_seed, gaps, label, how, training, source)
 
 
 def _timed(recorder, decoder, timing: dict, bar, repeats: int, where: str) -> Callable:
