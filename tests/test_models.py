@@ -56,7 +56,7 @@ def _old_recipe(name: str, profile: str, seed: int, flow: dict | None) -> None:
         tokenizer = tokenizers.tokenizer_for_dataset(tokens, dataset, profile)
         if projection:
             config = projection_config(profile, tokenizer, projection, seed)
-        else:  # discord/vq's laptop key changed on purpose: it trains its own, smaller budget (sizes.DISCORD_VQ)
+        else:  # discord/vq's laptop key changed on purpose: it trains its own, smaller decoder (sizes.DISCORD_VQ)
             budget = DISCORD_VQ.get(profile, {}) if tokens == "vq" else {}
             config = flows.discord_config(profile, tokenizer=tokenizer, seed=seed, **{**budget, **(flow or {})})
         flows.train_or_load_discord(dataset, tokenizer, profile, config=config)

@@ -16,7 +16,7 @@ name                            model
 ``tokenizer/<kind>-seed<k>``    that tokenizer trained with seed ``k`` (the training-seed study; seed 0 is the book's)
 ``toy_flow/ring[-conditional]`` chapter 03's 2-D velocity field (``dataset`` is not used)
 ``discord/rvq``, ``/vq``        the profile's DisCoRD decoder on that tokenizer's ids (chapters 05, 09; the VQ one
-                                trains a smaller laptop budget, ``sizes.DISCORD_VQ``)
+                                trains a smaller, narrower laptop decoder, ``sizes.DISCORD_VQ``)
 ``discord/rvq-<projection>``    chapter 04's ablation decoders: ``stacked``, ``repeat``, ``transposed``
 ``discord/<kind>-seed<k>``      the decoder trained with seed ``k`` on ``tokenizer/<kind>-seed<k>``: a replicate of
                                 the whole chain (the training-seed study, ``experiments/training_seeds.py``)
@@ -75,7 +75,7 @@ def _discord(variant: str, dataset, profile: str, seed: int, device, overrides: 
         from motionlab.build.book_models import projection_config
 
         config = projection_config(profile, tokenizer, projection, seed, **overrides)
-    else:  # the VQ tokens' decoder has its own, smaller laptop budget (sizes.DISCORD_VQ says why)
+    else:  # the VQ tokens' decoder has its own, smaller laptop decoder (sizes.DISCORD_VQ says why)
         budget = DISCORD_VQ.get(profile, {}) if tokens == "vq" else {}
         config = discord_config(profile, tokenizer=tokenizer, seed=seed, **{**budget, **overrides})
     return train_or_load_discord(dataset, tokenizer, profile, config=config, device=device)

@@ -115,16 +115,19 @@ def test_chapter_04s_ablation_has_its_own_budget_where_the_profile_says_so():
     from motionlab.flow import discord_config
     from motionlab.sizes import DISCORD_ABLATION
 
+    changed = ("projection", "train_steps", "warmup_steps", "width")
     for profile in ("smoke", "laptop", "full"):
-        own = discord_config(profile)
+        own, budget = discord_config(profile), DISCORD_ABLATION.get(profile, {})
         ablation = {kind: projection_config(profile, None, kind) for kind in ("stacked", "repeat", "transposed")}
-        steps = DISCORD_ABLATION.get(profile, {}).get("train_steps", own.train_steps)
-        assert {c.train_steps for c in ablation.values()} == {steps}
+        assert {c.train_steps for c in ablation.values()} == {budget.get("train_steps", own.train_steps)}
+        assert {c.width for c in ablation.values()} == {budget.get("width", own.width)}
         assert {c.projection for c in ablation.values()} == {"stacked", "repeat", "transposed"}
-        # apart from the projection and the budget, the ablation is chapter 05's decoder
-        same = {k: v for k, v in own.to_dict().items() if k not in ("projection", "train_steps", "warmup_steps")}
+        # apart from the projection, the budget and the width, the ablation is chapter 05's decoder
+        same = {k: v for k, v in own.to_dict().items() if k not in changed}
         assert all({k: v for k, v in c.to_dict().items() if k in same} == same for c in ablation.values())
-        # the stacked ablation decoder is chapter 05's own exactly where the budgets agree
-        assert (ablation["stacked"] == own) == (steps == own.train_steps)
-    assert DISCORD_ABLATION["laptop"]["train_steps"] < discord_config("laptop").train_steps
+        # the stacked ablation decoder is chapter 05's own exactly where the profile changes nothing
+        assert (ablation["stacked"] == own) == (not budget)
+    laptop = discord_config("laptop")
+    assert DISCORD_ABLATION["laptop"]["train_steps"] < laptop.train_steps
+    assert DISCORD_ABLATION["laptop"]["width"] < laptop.width
     assert DISCORD_ABLATION["laptop"]["warmup_steps"] == DISCORD_ABLATION["laptop"]["train_steps"] // 20

@@ -27,14 +27,15 @@ REPO = Path(__file__).resolve().parents[2]
 CHAPTER_09 = REPO / "notebooks" / "09_two_phase_sampling.ipynb"
 # The statements of chapter 09 that compute its tables (the test evaluates exactly these).
 CONFIG = "paper_config(design, seed=seed)"
-TABLE = "evaluate_multi(dataset, config, generated=generated)"
+TABLE = "evaluate_multi(dataset, config, generated=generated, tokens=tokens)"
+FLOW = "evaluate_multi(dataset, flow_config, tokens=tokens)"
 UNIFORM = 'paper_config(design, seed=seed, model="t2m/uniform", methods=("independent", "tps"))'
 TPS, INDEPENDENT = "TPS (T_s = 90)", "Independent (tokens concatenated)"
 
 
 def test_chapter_09_computes_its_tables_with_these_expressions(chapter_code):
     code = chapter_code(CHAPTER_09)
-    assert f"config = {CONFIG}" in code and f"table = {TABLE}" in code
+    assert f"config = {CONFIG}" in code and f"table = {TABLE}" in code and f"flow = {FLOW}" in code
     assert f"evaluate_multi(dataset, {UNIFORM})" in code
 
 
@@ -51,10 +52,11 @@ def chapter():
         names = {"paper_config": paper_config, "design": design, "seed": 0}
         config = eval(CONFIG, names)
         generated: dict = {}
+        tokens: dict = {}
         scope = {"evaluate_multi": evaluate_multi, "dataset": dataset, "config": config, "generated": generated}
-        table = eval(TABLE, scope)
-        uniform = evaluate_multi(dataset, eval(UNIFORM, names))
-    return SimpleNamespace(config=config, table=table, generated=generated, uniform=uniform)
+        table = eval(TABLE, {**scope, "tokens": tokens})
+        uniform = evaluate_multi(dataset, eval(UNIFORM, names), tokens=tokens)
+    return SimpleNamespace(config=config, table=table, generated=generated, uniform=uniform, tokens=tokens)
 
 
 def test_the_cli_prints_the_numbers_chapter_09_computes(chapter, run_command_line):
@@ -97,6 +99,30 @@ def test_rows_pair_boundary_by_boundary_within_and_across_tables(chapter):
     assert arms.paired(TPS, "uniform: " + TPS, "jerk").n == boundaries
     assert uniform.rows[GROUND_TRUTH_CONCAT] == table.rows[GROUND_TRUTH_CONCAT]  # real data: the same numbers
     assert not np.allclose(uniform.samples[TPS]["jerk"], table.samples[TPS]["jerk"])  # a different model
+
+
+def test_a_second_evaluation_decodes_the_tokens_the_first_drew(chapter):
+    """Chapter 09's DisCoRD rows take the main table's draws (``tokens=``): here the same decoder, so the rows must
+    come back number for number, and without a single new draw."""
+    from motionlab.data import load_dataset
+
+    by_model = chapter.tokens
+    assert len(by_model) == 2  # the chapter's model and t2m/uniform keep their draws apart
+    drawn = by_model[next(key for key in by_model if key[0] == chapter.config.model)]
+    # 8 methods x 2 repeats, less the draws "separate" shares with "independent"
+    assert len(drawn) == (len(PAPER_METHODS) - 1) * chapter.table.repeats
+    before = dict(drawn)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("MOTIONLAB_PROFILE", "smoke")
+        mp.setenv("MOTIONLAB_PRECISION", "fp32")
+        again = evaluate_multi(
+            load_dataset(profile="smoke", seed=0),
+            replace(chapter.config, methods=("independent", "tps")),
+            tokens=chapter.tokens,
+        )
+    assert drawn == before and all(drawn[key] is before[key] for key in before)
+    for row in (INDEPENDENT, TPS):
+        assert again.rows[row] == chapter.table.rows[row]
 
 
 # --------------------------------------------------------------------------------- the config, without models

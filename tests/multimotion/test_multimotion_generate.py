@@ -148,3 +148,39 @@ def test_generator_passes_joint_text_and_multi_motion_settings_are_the_papers(pi
     assert seen[0]["joint_text"] == "all" and seen[0]["guidance_scale"] == MULTI_MOTION_GUIDANCE
     assert len(motions[0].features) == 48 and motions[0].boundaries == [16, 36]
     assert (MULTI_MOTION_ETA, MULTI_MOTION_GUIDANCE) == (0.25, 2.0)  # M2D2M appendix A.1
+
+
+def test_a_token_cache_reuses_each_draw_and_changes_no_number(pipe, monkeypatch):
+    lengths = [16, 24, 8]
+    plain = MultiMotionGenerator.from_pipeline(pipe)
+    cached = MultiMotionGenerator.from_pipeline(pipe, token_cache={})
+    draws = []
+    real = cached._sample
+    monkeypatch.setattr(cached, "_sample", lambda *a: draws.append(a[2]) or real(*a))
+    for method in ("tps", "independent", "separate", "tps"):
+        ours = cached.generate(TEXTS, lengths, method=method, seed=3, num_steps=5)[0]
+        theirs = plain.generate(TEXTS, lengths, method=method, seed=3, num_steps=5)[0]
+        np.testing.assert_array_equal(ours.features, theirs.features)
+    assert draws == ["tps", "independent"]  # separate decodes independent's tokens; the second tps is the first
+    one = cached.sample_tokens(TEXTS, lengths, method="separate", seed=3, num_steps=5)
+    assert one is cached.sample_tokens(TEXTS, lengths, method="independent", seed=3, num_steps=5)
+    # another seed, sampler option, T_s or transition is another draw
+    cached.sample_tokens(TEXTS, lengths, method="tps", seed=4, num_steps=5)
+    cached.sample_tokens(TEXTS, lengths, method="tps", seed=3, num_steps=4)
+    cached.sample_tokens(TEXTS, lengths, method="tps", seed=3, num_steps=5, T_s=2)
+    cached.sample_tokens(TEXTS, lengths, method="handshake", seed=3, num_steps=5, transition=16)
+    cached.sample_tokens(TEXTS, lengths, method="handshake", seed=3, num_steps=5, transition=8)
+    assert len(draws) == 7 and len(cached.token_cache) == 7
+
+
+def test_token_keys(pipe):
+    from motionlab.multimotion.generate import token_key
+
+    texts, lengths = [TEXTS], [[16, 24, 8]]
+    key = token_key("tps", texts, lengths, 0, 9, 40, {"num_steps": 5, "timesteps": [10, 5, 1]})
+    assert key == token_key("tps", texts, [np.array([16, 24, 8])], 0, 9, 8, {"timesteps": (10, 5, 1), "num_steps": 5})
+    independent = token_key("independent", texts, lengths, 0, None, 8, {})
+    assert independent == token_key("separate", texts, lengths, 0, 9, 40, {})  # T_s and transition do not count
+    assert token_key("tps", texts, lengths, 0, 9, 40, {"timesteps": torch.arange(3)}) is None  # not a plain value
+    with pytest.raises(ValueError, match="token_cache must be a dict"):
+        MultiMotionGenerator.from_pipeline(pipe, token_cache=[])

@@ -16,8 +16,8 @@ everything cached after the plan ran.
 
 ``discord/rvq`` is chapter 05's decoder, the one DisCoRD's claims are judged on; it gets the profile's whole flow
 budget. Chapter 04's three projections compare with each other, not with the feed-forward decoder, and chapter 09's
-``discord/vq`` carries no claim, so in the laptop profile those four train under a third of it (``DISCORD_ABLATION`` and
-``DISCORD_VQ`` in :mod:`motionlab.sizes`, where the reasons are).
+``discord/vq`` carries no claim, so in the laptop profile those four train under a third of its steps at half its width
+(``DISCORD_ABLATION`` and ``DISCORD_VQ`` in :mod:`motionlab.sizes`, where the reasons are).
 """
 
 from __future__ import annotations
@@ -33,8 +33,8 @@ from .plan import Job
 # Training CPU seconds per model on one core of the reference machine, the slowest CPU of this project's kind (an
 # AMD EPYC Zen 3 with AVX2 only, 2 cores, two 1-thread workers, fp32), from `motionlab train book --record`
 # (book/data/build_times/laptop-training.json; laptop: a tokenizer step 0.15 s x 2,000, a DisCoRD step 0.31 s x 4,000
-# for chapter 05's decoder and 0.38 s x 1,150 for the short budget of chapter 04's ablation and chapter 09's VQ
-# decoder, a diffusion step 0.22 s x 800). Faster CPUs finish sooner; the numbers drive the plan line and the progress
+# for chapter 05's decoder and 0.18 s x 1,150 for the short, narrow decoders of chapter 04's ablation and chapter 09's
+# VQ tokens, a diffusion step 0.22 s x 800). Faster CPUs finish sooner; the numbers drive the plan line and the progress
 # estimates, nothing else.
 ESTIMATES_S: dict[str, dict[str, float]] = {
     "smoke": {
@@ -52,7 +52,7 @@ ESTIMATES_S: dict[str, dict[str, float]] = {
         "toy_flow": 25,
         "evaluator": 170,
         "discord": 1240,
-        "discord_short": 440,
+        "discord_short": 210,
         "t2m": 180,
     },
     "full": {

@@ -275,6 +275,7 @@ def evaluate_multi(
     device: str | None = None,
     progress: bool = False,
     generated: dict | None = None,
+    tokens: dict | None = None,
 ) -> EvaluationTable:
     """M2D2M's multi-motion table on ``config.split``: the two ground-truth rows and one row per method.
 
@@ -304,8 +305,9 @@ def evaluate_multi(
     cfg = _config(config, MultiMotionConfig)
     profile = get_profile(profile)
     _check_dataset(dataset)
-    if generated is not None and not isinstance(generated, dict):
-        raise ValueError(f"generated must be a dict (filled with the motions) or None, got {type(generated).__name__}")
+    for name, value in (("generated", generated), ("tokens", tokens)):
+        if value is not None and not isinstance(value, dict):
+            raise ValueError(f"{name} must be a dict (filled by the evaluation) or None, got {type(value).__name__}")
     pool = single_action_pool(dataset, cfg.split)
     if len(pool) < 2:
         raise ValueError(f"the {cfg.split} split has {len(pool)} single-action clips; the reference needs 2")
@@ -334,7 +336,8 @@ def evaluate_multi(
     ground_truth = ground_truth_jerks(everything, reference.window, rng=cfg.seed)
     samples: dict = {}
     with _bar(cfg.repeats * len(methods), "multi-motion generations", progress) as bar:
-        generator = _Counting(MultiMotionGenerator.from_pipeline(pipe, decoder=decoder), bar)
+        drawn = {} if tokens is None else tokens.setdefault((cfg.model, dataset.key, cfg.split, str(device)), {})
+        generator = _Counting(MultiMotionGenerator.from_pipeline(pipe, decoder=decoder, token_cache=drawn), bar)
         rows = evaluate_methods(
             generator,
             instances,

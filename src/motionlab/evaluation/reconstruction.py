@@ -630,10 +630,12 @@ def _timing_batch(normalized: list[np.ndarray], tokenizer):
 
 
 def _time_and_count(fn: Callable[[], Any], repeats: int) -> tuple[np.ndarray, int]:
-    """Seconds of ``repeats`` timed calls of ``fn`` (no gradients, one untimed call first) and its FLOPs."""
+    """Seconds of ``repeats`` timed calls of ``fn`` (no gradients) and its FLOPs, counted in one untimed call first
+    (which also serves as the warm-up: on a slow CPU each decode at 16 steps is seconds of work)."""
     import torch
 
     from motionlab.flow.reconstruction import count_flops, time_calls
 
+    flops = count_flops(fn)
     with torch.no_grad():
-        return time_calls(fn, repeats=repeats), count_flops(fn)
+        return time_calls(fn, repeats=repeats, warmup=0), flops

@@ -23,7 +23,7 @@ sampler, e.g. ``joint_text="all"`` for TPS (:func:`~motionlab.multimotion.two_ph
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import torch
@@ -73,21 +73,56 @@ def _instances(texts, lengths) -> tuple[list[list[str]], list[list[int]]]:
     return texts, lengths
 
 
+_PLAIN = (int, float, str, bool, type(None))  # sampler options that can key a draw; a tensor or a callable cannot
+
+
+def token_key(method: str, texts, lengths, seed: int, T_s: int | None, transition: int, sampling: dict):
+    """What one draw of tokens depends on, as a hashable key (None if a sampler option is not a plain value).
+
+    ``independent`` and ``separate`` share a key: they sample the same tokens and differ only in the decoding.
+    ``texts``/``lengths`` are the nested per-instance lists of :func:`_instances`; ``T_s`` counts for ``tps`` only,
+    ``transition`` for ``slerp`` and ``handshake``.
+    """
+    kind = "independent" if method == "separate" else method
+    options = []
+    for name, value in sorted(sampling.items()):
+        values = tuple(value) if isinstance(value, (list, tuple)) else (value,)
+        if not all(isinstance(v, _PLAIN) for v in values):
+            return None
+        options.append((name, tuple(value) if isinstance(value, (list, tuple)) else value))
+    extra = T_s if kind == "tps" else transition if kind in ("slerp", "handshake") else None
+    shapes = (tuple(tuple(t) for t in texts), tuple(tuple(int(n) for n in inst) for inst in lengths))
+    return (kind, *shapes, int(seed), extra, tuple(options))
+
+
 @dataclass
 class MultiMotionGenerator:
+    """The model's pieces and a decode function; :meth:`generate` runs any of :data:`METHODS`.
+
+    ``token_cache`` (a dict, or None: no caching) keeps every draw of tokens by :func:`token_key`: a second call
+    with the same method, texts, lengths, seed and sampler options returns the tokens of the first instead of
+    sampling again (the draw is a pure function of those, seeded by ``seed``). ``separate`` thereby decodes the
+    very tokens ``independent`` sampled, and two generators of one model that share the dict, one per decoder,
+    decode the same tokens.
+    """
+
     model: nn.Module
     transitions: Transitions
     text_encoder: nn.Module
     decode: Callable[[torch.Tensor], list[np.ndarray]]
     guidance_scale: float = MULTI_MOTION_GUIDANCE  # used when a call passes none
+    token_cache: dict | None = field(default=None, repr=False)
 
     @classmethod
-    def from_pipeline(cls, pipe, decoder=None) -> MultiMotionGenerator:
+    def from_pipeline(cls, pipe, decoder=None, token_cache: dict | None = None) -> MultiMotionGenerator:
         """From a ``TextToMotion`` (anything with model, transitions, text_encoder and decode(ids, decoder))."""
         for name in ("model", "transitions", "text_encoder", "decode"):
             if not hasattr(pipe, name):
                 raise ValueError(f"pipe needs a {name!r} attribute (a TextToMotion), got {type(pipe).__name__}")
-        return cls(pipe.model, pipe.transitions, pipe.text_encoder, lambda ids: pipe.decode(ids, decoder=decoder))
+        if token_cache is not None and not isinstance(token_cache, dict):
+            raise ValueError(f"token_cache must be a dict or None, got {type(token_cache).__name__}")
+        decode = lambda ids: pipe.decode(ids, decoder=decoder)  # noqa: E731
+        return cls(pipe.model, pipe.transitions, pipe.text_encoder, decode, token_cache=token_cache)
 
     @torch.no_grad()
     def encode(self, texts: Sequence[str]):
@@ -113,14 +148,27 @@ class MultiMotionGenerator:
         **sampling,
     ) -> MultiMotionTokens:
         """Token ids of every action for ``method`` (``slerp`` samples each action shorter, as
-        :func:`~motionlab.multimotion.baselines.shortened_lengths` says, so the blend restores ``lengths``)."""
+        :func:`~motionlab.multimotion.baselines.shortened_lengths` says, so the blend restores ``lengths``); from
+        ``token_cache`` when the same draw was made before."""
         texts, lengths = _instances(texts, lengths)
         sampling.setdefault("guidance_scale", self.guidance_scale)
+        if method == "tps" and T_s is None:
+            T_s = round(DEFAULT_TS_FRACTION * self.transitions.T)
+        key = None
+        if self.token_cache is not None:
+            key = token_key(method, texts, lengths, seed, T_s, transition, sampling)
+            if key in self.token_cache:
+                return self.token_cache[key]
+        tokens = self._sample(texts, lengths, method, seed, T_s, transition, sampling)
+        if key is not None:
+            self.token_cache[key] = tokens
+        return tokens
+
+    def _sample(self, texts, lengths, method, seed, T_s, transition, sampling) -> MultiMotionTokens:
         text = self.encode([t for inst in texts for t in inst])
         g = torch.Generator().manual_seed(int(seed))
         args = (self.model, self.transitions, text)
         if method == "tps":
-            T_s = round(DEFAULT_TS_FRACTION * self.transitions.T) if T_s is None else T_s
             return two_phase_sample(*args, lengths, T_s=T_s, generator=g, **sampling)
         if method in ("independent", "separate"):
             return independent_sample(*args, lengths, generator=g, **sampling)
