@@ -329,18 +329,18 @@ DISCORD_DECODER = {
 # would add more than half to the book's training time; at a quarter of this one (tried while sizing the build) they
 # were far from converged and the ablation meaningless. Warm-up stays 5% of the steps. The U-Net is half chapter 05's
 # width: the three compare with each other, not with the feed-forward decoder, and at width 128 they cost 21.9 of the
-# laptop build's 108 CPU-minutes on an AVX2-only CPU in fp32 (0.36-0.41 s per step); at 64, 10.4 (0.17-0.19 s per
-# step, 2026-12-03), with the claim they carry (Table 6) inconclusive at either width.
+# laptop build's 108 CPU-minutes on an AVX2-only CPU in fp32 (0.36-0.41 s per step); at 64, 8.4 in a cold build
+# (0.14-0.15 s per step, 2026-12-03), with the claim they carry (Table 6) inconclusive at either width.
 DISCORD_ABLATION = {"smoke": {}, "laptop": {"width": 64, "train_steps": 1150, "warmup_steps": 57}}
 # The DisCoRD decoder of the single-codebook VQ tokens (``discord/vq``: chapter 09 and ``--decoder discord``), on top
 # of DISCORD_DECODER. No claim is judged on it: it shows that DisCoRD decodes M2D2M's tokens unchanged. At chapter 05's
 # 4,000 steps and width 128 it cost 19.8 of the laptop build's 135 CPU-minutes on an AVX2-only CPU in fp32
 # (2026-12-03); at the ablation's budget and width it keeps the chapter's comparison (its own decoder against the VQ
-# decoder, inside the actions and at the seams) and costs 3.5. The ``full`` profile trains it like chapter 05's.
+# decoder, inside the actions and at the seams) and costs 2.8. The ``full`` profile trains it like chapter 05's.
 DISCORD_VQ = {"smoke": {}, "laptop": DISCORD_ABLATION["laptop"]}
 
 # TransformerConfig (diffusion/transformer.py), the denoiser. Laptop: about 3 minutes on one core of an AVX2-only CPU in
-# fp32 (800 steps of ~0.22 s; the laptop book trains three such models, see motionlab.build.book_models). The learning
+# fp32 (800 steps of ~0.19 s; the laptop book trains three such models, see motionlab.build.book_models). The learning
 # rates are larger than the paper's 2e-4: these runs are hundreds of steps, not 110 epochs.
 DENOISER = {
     "smoke": {

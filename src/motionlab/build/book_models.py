@@ -33,8 +33,8 @@ from .plan import Job
 # Training CPU seconds per model on one core of the reference machine, the slowest CPU of this project's kind (an
 # AMD EPYC Zen 3 with AVX2 only, 2 cores, two 1-thread workers, fp32), from `motionlab train book --record`
 # (book/data/build_times/laptop-training.json; laptop: a tokenizer step 0.15 s x 2,000, a DisCoRD step 0.31 s x 4,000
-# for chapter 05's decoder and 0.18 s x 1,150 for the short, narrow decoders of chapter 04's ablation and chapter 09's
-# VQ tokens, a diffusion step 0.22 s x 800). Faster CPUs finish sooner; the numbers drive the plan line and the progress
+# for chapter 05's decoder and 0.15 s x 1,150 for the short, narrow decoders of chapter 04's ablation and chapter 09's
+# VQ tokens, a diffusion step 0.19 s x 800). Faster CPUs finish sooner; the numbers drive the plan line and the progress
 # estimates, nothing else.
 ESTIMATES_S: dict[str, dict[str, float]] = {
     "smoke": {
@@ -50,10 +50,10 @@ ESTIMATES_S: dict[str, dict[str, float]] = {
         "data": 60,
         "tokenizer": 305,
         "toy_flow": 25,
-        "evaluator": 170,
+        "evaluator": 150,
         "discord": 1240,
-        "discord_short": 210,
-        "t2m": 180,
+        "discord_short": 170,
+        "t2m": 160,
     },
     "full": {
         "data": 1500,

@@ -86,10 +86,11 @@ def token_key(method: str, texts, lengths, seed: int, T_s: int | None, transitio
     kind = "independent" if method == "separate" else method
     options = []
     for name, value in sorted(sampling.items()):
-        values = tuple(value) if isinstance(value, (list, tuple)) else (value,)
-        if not all(isinstance(v, _PLAIN) for v in values):
+        sequence = isinstance(value, (list, tuple))
+        items = tuple(value) if sequence else (value,)
+        if not all(isinstance(v, _PLAIN) for v in items):
             return None
-        options.append((name, tuple(value) if isinstance(value, (list, tuple)) else value))
+        options.append((name, sequence, items))
     extra = T_s if kind == "tps" else transition if kind in ("slerp", "handshake") else None
     shapes = (tuple(tuple(t) for t in texts), tuple(tuple(int(n) for n in inst) for inst in lengths))
     return (kind, *shapes, int(seed), extra, tuple(options))
