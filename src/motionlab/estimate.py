@@ -116,6 +116,45 @@ def mean_ci(values: Sequence[float], method: str = "t", unit: str | None = None)
     return Estimate(float(v.mean()), half, int(v.size), unit)
 
 
+BOOTSTRAP_RESAMPLES = 2000
+
+
+def paired_bootstrap(
+    a: Sequence[float],
+    b: Sequence[float],
+    weights: Sequence[float] | None = None,
+    *,
+    resamples: int = BOOTSTRAP_RESAMPLES,
+    seed: int = 0,
+    unit: str | None = None,
+) -> Estimate:
+    """``mean(a) − mean(b)`` over units measured both ways (test clips), with the 95% interval of a paired bootstrap.
+
+    ``a[i]`` and ``b[i]`` are one unit's values under two conditions. Each resample draws the units with replacement
+    and keeps the pairs together, so what the two conditions share (an easy or a hard clip) cancels. ``weights`` (one
+    per unit, e.g. its frames) turn the means into weighted means, for metrics pooled over frames rather than clips.
+    The half-width is half the 2.5–97.5 percentile range of the resampled differences; ``n`` is the number of units.
+    """
+    if not isinstance(resamples, int) or isinstance(resamples, bool) or resamples < 100:
+        raise ValueError(f"resamples must be an int >= 100, got {resamples!r}")
+    x, y = (np.asarray(v, dtype=np.float64).reshape(-1) for v in (a, b))
+    if x.shape != y.shape:
+        raise ValueError(f"a has {x.size} values and b {y.size}: a paired bootstrap needs one pair per unit")
+    w = np.ones_like(x) if weights is None else np.asarray(weights, dtype=np.float64).reshape(-1)
+    if w.shape != x.shape or (w < 0).any() or not w.sum() > 0:
+        raise ValueError(f"weights must be {x.size} non-negative numbers, not all 0")
+    if not (np.isfinite(x).all() and np.isfinite(y).all() and np.isfinite(w).all()):
+        raise ValueError("a, b and weights must be finite")
+    if x.size < 2:
+        raise ValueError(f"a paired bootstrap needs at least 2 units, got {x.size}")
+    d = x - y
+    rng = np.random.default_rng(seed)
+    picks = rng.integers(0, d.size, size=(resamples, d.size))  # (R, N) unit indices
+    drawn = (w[picks] * d[picks]).sum(axis=1) / np.maximum(w[picks].sum(axis=1), np.finfo(float).tiny)  # (R,)
+    low, high = np.percentile(drawn, [2.5, 97.5])
+    return Estimate(float((w * d).sum() / w.sum()), float(high - low) / 2.0, int(d.size), unit)
+
+
 def summarize_runs(runs: Iterable[Mapping[str, float]], method: str = "t") -> dict[str, Estimate]:
     """Turn repeated evaluations ``[{"fid": .., "top1": ..}, ...]`` into one :class:`Estimate` per metric."""
     runs = list(runs)

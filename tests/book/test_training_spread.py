@@ -139,3 +139,38 @@ def test_the_spread_table_lists_each_measured_comparison(spread_folder):
     assert f"measured on {DATA}" in table.notes[0] and "commit abc1234" in table.notes[0]
     with pytest.raises(ValueError, match="measured none"):
         spread_table(TrainingSpread("laptop", DATA))
+
+
+def test_the_test_clips_interval_joins_the_verdict_where_recorded(spread_folder):
+    a, b = Estimate(1.38), Estimate(1.45)
+    clips = report.compare(a, b, "DisCoRD", "feed-forward", quantity="sJPE", test_set=Estimate(-0.07, 0.08, 160))
+    assert clips.judge("lower") == INCONCLUSIVE
+    assert "(another draw of test clips moves the difference by ± 0.080: a paired bootstrap over 160 clips)" in str(
+        clips
+    )
+    # the three parts add in quadrature: hypot(0.05, 0.05) = 0.0707 > 0.07
+    both = report.compare(a, b, training=Estimate(-0.07, 0.05, 3), test_set=Estimate(-0.07, 0.05, 160))
+    assert not both.apart and report.compare(a, b, test_set=Estimate(-0.07, 0.05, 160)).apart
+    assert "over 3 training seeds, another draw of test clips by ± 0.050: a paired" in str(both)
+    with pytest.raises(TypeError, match="test_set must be an Estimate"):
+        report.compare(a, b, test_set=0.1)
+
+    recorded = {
+        "discord/sjpe_rf": Result("discord", "sjpe_rf", 1.38, note=NOTE),
+        "discord/sjpe_ff": Result("discord", "sjpe_ff", 1.45, note=NOTE),
+    }
+    rule = Less("discord/sjpe_rf", "discord/sjpe_ff", clips="discord/sjpe_rf_minus_ff")
+    assert rule.judge(recorded) == HOLDS and rule.keys == ("discord/sjpe_rf", "discord/sjpe_ff")  # not recorded: points
+    wide = recorded | {"discord/sjpe_rf_minus_ff": Result("discord", "sjpe_rf_minus_ff", -0.07, ci=(-0.16, 0.02))}
+    assert rule.judge(wide) == INCONCLUSIVE
+    narrow = recorded | {"discord/sjpe_rf_minus_ff": Result("discord", "sjpe_rf_minus_ff", -0.07, ci=(-0.09, -0.05))}
+    assert rule.judge(narrow) == HOLDS and rule.judge(narrow, load_spread("laptop", spread_folder)) == INCONCLUSIVE
+
+
+def test_the_claims_table_says_how_far_the_test_clips_move_a_difference(tmp_path, monkeypatch):
+    monkeypatch.setenv("MOTIONLAB_RESULTS", str(tmp_path / "results"))
+    for key, value in (("sjpe_rf", 1.38), ("sjpe_ff", 1.45)):
+        results.record("discord", key, value, note=NOTE, profile="laptop")
+    results.record("discord", "sjpe_rf_minus_ff", Estimate(-0.07, 0.03, 160), note=NOTE, profile="laptop")
+    row = next(r for r in claims_table("laptop", spread=None, budget=None).rows if "lowers sJPE" in r.statement)
+    assert row.verdict == HOLDS and "another draw of test clips moves the difference by ± 0.030 (a paired" in row.ours

@@ -120,6 +120,16 @@ def test_the_options_rows_and_columns_hold_what_the_chapter_reads(chapter_table)
     assert four - one == pytest.approx(3 * (two - one)) and two > one  # a U-Net call per evaluation, a projection
     assert table.estimate(ff, "seconds").n == evaluation.timing_repeats
     assert "12 longest clips" in table.notes[0]  # fewer clips than a batch of 32: all of them
+    # each clip's values, averaged over a row's seeds, pair the decoders clip by clip (the claims' test-set interval)
+    from motionlab.evaluation import reconstruction_clip_cells
+
+    assert len(table.clip_values[rf]["sjpe"]) == 12 and len(table.clip_weights["mpjpe_mm"]) == 12
+    for metric in ("sjpe", "noise_sjpe", "static_sjpe", "mpjpe_mm"):
+        difference = table.paired_clips(rf, ff, metric)
+        assert difference.mean == pytest.approx(table.estimate(rf, metric).mean - table.estimate(ff, metric).mean)
+        assert difference.half_width > 0 and difference.n == 12
+    cells = reconstruction_clip_cells(table, evaluation)
+    assert cells["sjpe_rf_minus_ff"] == (rf, ff, "sjpe") and cells["mpjpe_rf_minus_ff"] == (rf, ff, "mpjpe_mm")
     # the paper's rows sit beside ours in Table 1
     shown = table.with_rows(PAPER_TABLE_1).select(ff, rf, *PAPER_TABLE_1)
     assert shown.estimate("paper, HumanML3D: MoMask + DisCoRD", "sjpe_ratio").mean == 0.385

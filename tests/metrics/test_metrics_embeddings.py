@@ -8,6 +8,7 @@ from motionlab.metrics import (
     diversity,
     fid,
     frechet_distance,
+    gaussian_stats,
     mean_ci,
     mm_dist,
     multimodality,
@@ -44,6 +45,25 @@ def test_frechet_distance_survives_singular_covariances():
     rank1 = np.outer([1.0, 2.0, 0.0], [1.0, 2.0, 0.0])
     d = frechet_distance(np.zeros(3), rank1, np.zeros(3), np.zeros((3, 3)))
     assert np.isfinite(d) and d == pytest.approx(np.trace(rank1), abs=1e-3)
+
+
+def test_frechet_distance_matches_the_sqrtm_route_for_non_commuting_covariances():
+    from scipy import linalg
+
+    rng = np.random.default_rng(3)
+    a, b = rng.normal(size=(40, 6)), rng.normal(size=(50, 6)) @ rng.normal(size=(6, 6))
+    (mu1, s1), (mu2, s2) = gaussian_stats(a), gaussian_stats(b)
+    reference = (mu1 - mu2) @ (mu1 - mu2) + np.trace(s1 + s2 - 2.0 * linalg.sqrtm(s1 @ s2).real)
+    assert frechet_distance(mu1, s1, mu2, s2) == pytest.approx(reference, rel=1e-9)
+
+
+def test_frechet_distance_rejects_matrices_that_are_not_covariances():
+    with pytest.raises(ValueError, match="symmetric"):
+        frechet_distance(np.zeros(2), np.array([[1.0, 0.5], [0.0, 1.0]]), np.zeros(2), np.eye(2))
+    with pytest.raises(ValueError, match="positive semi-definite"):
+        frechet_distance(np.zeros(2), np.eye(2), np.zeros(2), np.diag([1.0, -1.0]))
+    with pytest.raises(ValueError, match="finite"):
+        frechet_distance(np.zeros(2), np.eye(2), np.array([np.nan, 0.0]), np.eye(2))
 
 
 def test_fid_rejects_bad_input():

@@ -42,6 +42,7 @@ from .multi import MultiMotionConfig, evaluate_multi
 from .multi import claim_cells as multi_claim_cells
 from .reconstruction import ReconstructionConfig, evaluate_reconstruction
 from .reconstruction import claim_cells as reconstruction_claim_cells
+from .reconstruction import clip_cells as reconstruction_clip_cells
 from .t2m import TextToMotionConfig, evaluate_t2m
 from .table import (
     METRIC_LABELS,
@@ -62,6 +63,7 @@ CONFIGS = {"reconstruction": ReconstructionConfig, "t2m": TextToMotionConfig, "m
 __all__ = [
     "multi_claim_cells",
     "reconstruction_claim_cells",
+    "reconstruction_clip_cells",
     "CLI_OPTIONS",
     "CONFIGS",
     "EVALUATORS",

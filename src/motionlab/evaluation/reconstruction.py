@@ -304,13 +304,15 @@ def evaluate_reconstruction(
     gt_joints = ClipJoints.from_features(gt)  # recovered once, shared by every row's MPJPE and sJPE
     phases = _phase_metrics(q) if cfg.token_phases else ()
 
-    def score(recon: list[np.ndarray], space=normalizer) -> dict[str, float]:
+    def score(recon: list[np.ndarray], space=normalizer) -> tuple[dict[str, float], dict[str, np.ndarray]]:
+        """One run's columns, and each clip's value of the metrics averaged over clips (or frames)."""
         raw = [space.denormalize(r) for r in recon]
         joints = ClipJoints.from_features(raw)
-        scores = reconstruction_scores(raw, gt, evaluator.embed_motions, gt_embeddings, gt_joints, joints).as_dict()
+        scored = reconstruction_scores(raw, gt, evaluator.embed_motions, gt_embeddings, gt_joints, joints)
+        scores = scored.as_dict()
         if phases:
             scores.update(_token_phases(joints, gt_joints, q))
-        return scores
+        return scores, scored.per_clip
 
     _announce(_cost_line(models, normalized, window, cfg), progress)
     feed_forward = f"{models.tokens} decoder"
@@ -327,9 +329,9 @@ def evaluate_reconstruction(
     if models.flow is not None:
         flow = models.flow
         seeded = not flow.deterministic  # at temperature 0 every seed decodes the same motion
-        decoded: dict[tuple[int, str], list[dict[str, float]]] = {}  # (steps, solver) -> runs, repeat by repeat
+        decoded: dict[tuple[int, str], list[tuple]] = {}  # (steps, solver) -> scored runs, repeat by repeat
 
-        def flow_runs(steps: int, solver: str, repeats: int, what: str) -> list[dict[str, float]]:
+        def flow_runs(steps: int, solver: str, repeats: int, what: str) -> list[tuple]:
             # repeat r always decodes from repeat_seed(seed, r): a grid row at the DisCoRD row's steps reuses its runs
             done = decoded.setdefault((steps, solver), [])
             todo = range(len(done), repeats if seeded else 1)
@@ -374,6 +376,8 @@ def evaluate_reconstruction(
                 f"Grid rows: the same decoder{options} with other ODE steps, {seeds}; "
                 "an evaluation is one network call."
             )
+    clip_values = {row: _per_clip_means([clips for _, clips in values]) for row, values in runs.items()}
+    runs = {row: [scores for scores, _ in values] for row, values in runs.items()}
     rows = {row: _summarize(values) for row, values in runs.items()}
     samples = {row: {m: [run[m] for run in values] for m in values[0]} for row, values in runs.items()}
     metrics = list(RECONSTRUCTION_METRICS)
@@ -414,6 +418,8 @@ def evaluate_reconstruction(
         deterministic=tuple(deterministic),
         notes=[" ".join(notes)],
         samples=samples,
+        clip_values=clip_values,
+        clip_weights={"mpjpe_mm": [float(n) for n in gt_joints.lengths]},  # MPJPE pools frames, not clips
     )
     if cfg.released_decoder and int(tokenizer.feature_dim) == 263:  # the paper's HumanML3D rows, to read beside
         table = table.with_rows(PAPER_TABLE_1, deterministic=tuple(PAPER_TABLE_1))
@@ -454,6 +460,30 @@ def claim_cells(table, cfg: ReconstructionConfig) -> dict[str, tuple[str, str]]:
             cells |= {f"{key}_steps{n}": (row, key if key != "time" else "seconds") for key in ("fid", "sjpe", "time")}
             cells |= {f"noise_sjpe_steps{n}": (row, "noise_sjpe")}
     return {key: (row, m) for key, (row, m) in cells.items() if m in table.rows.get(row, {})}
+
+
+# the claims whose two sides are per-clip means over the same test clips: ``discord/<name>`` is their paired difference
+CLIP_PAIRED = ("sjpe", "noise_sjpe", "static_sjpe", "mpjpe")
+
+
+def clip_cells(table, cfg: ReconstructionConfig) -> dict[str, tuple[str, str, str]]:
+    """Which paired differences over the test clips back DisCoRD's claims: ``{key: (row_a, row_b, metric)}``.
+
+    ``<metric>_rf_minus_ff`` (DisCoRD − the feed-forward decoder) for sJPE, its two parts and MPJPE, and, with the
+    paper's 2 and 16 midpoint grid points in ``cfg.grid``, ``sjpe_steps2_minus_steps16``. Both rows decode the same
+    clips, so :meth:`EvaluationTable.paired_clips` gives each the interval of drawing the test set, which a
+    deterministic decoder's row lacks; the claims table adds it to the verdict's interval. Cells without per-clip
+    values (FID is not a mean over clips) are left out.
+    """
+    cells = claim_cells(table, cfg)
+    out = {}
+    for name in CLIP_PAIRED:
+        (rf_row, metric), (ff_row, _) = cells.get(f"{name}_rf", (None, None)), cells.get(f"{name}_ff", (None, None))
+        if rf_row is not None and ff_row is not None:
+            out[f"{name}_rf_minus_ff"] = (rf_row, ff_row, metric)
+    if "sjpe_steps2" in cells and "sjpe_steps16" in cells:
+        out["sjpe_steps2_minus_steps16"] = (cells["sjpe_steps2"][0], cells["sjpe_steps16"][0], "sjpe")
+    return {k: v for k, v in out.items() if all(v[2] in table.clip_values.get(row, {}) for row in v[:2])}
 
 
 def _announce(text: str, progress: bool) -> None:
@@ -611,6 +641,11 @@ def _token_phases(joints, gt_joints, q: int) -> dict[str, float]:
     total = float(parts.sum())
     share = float(parts[0]) / total if total > 0 else float("nan")
     return {**{f"noise_sjpe_phase{p}": float(x) for p, x in enumerate(parts)}, "noise_sjpe_boundary_share": share}
+
+
+def _per_clip_means(runs: Sequence[Mapping[str, np.ndarray]]) -> dict[str, list[float]]:
+    """Each clip's value per metric, averaged over a row's runs (its sampling seeds): one value per test clip."""
+    return {m: np.mean([run[m] for run in runs], axis=0).tolist() for m in runs[0]}
 
 
 def _summarize(runs: Sequence[Mapping[str, float]]) -> dict[str, Estimate]:

@@ -91,6 +91,11 @@ class EvaluationTable:
     # Per row and metric, the values behind an estimate in an order shared across rows (repeat by repeat, or boundary
     # by boundary), so that two rows measured on the same seeds and instances pair up (:meth:`paired`).
     samples: dict[str, dict[str, list[float]]] = field(default_factory=dict)
+    # Per row and metric, each test clip's value (averaged over the row's runs), in one clip order for every row, for
+    # the metrics that are means over clips; ``clip_weights[metric]`` where the metric pools frames instead (MPJPE).
+    # What :meth:`paired_clips` resamples. Like ``samples``, not written to JSON.
+    clip_values: dict[str, dict[str, list[float]]] = field(default_factory=dict)
+    clip_weights: dict[str, list[float]] = field(default_factory=dict)
 
     def header(self) -> str:
         """One line: task, profile, precision, dataset key, what was evaluated, repeats and seed."""
@@ -199,6 +204,26 @@ class EvaluationTable:
         d = a - b
         return mean_ci(d[np.isfinite(d)])
 
+    def paired_clips(self, row_a: str, row_b: str, metric: str, *, resamples: int | None = None) -> Estimate:
+        """``row_a − row_b`` on ``metric`` with a paired bootstrap over the test clips (seeded by the table's seed):
+        the interval a deterministic decoder's row lacks, the variance of drawing this test set. Needs both rows'
+        :attr:`clip_values` (reconstruction tables have them for sJPE, its parts and MPJPE)."""
+        from motionlab.estimate import BOOTSTRAP_RESAMPLES, paired_bootstrap
+
+        missing = [r for r in (row_a, row_b) if metric not in self.clip_values.get(r, {})]
+        if missing:
+            raise KeyError(f"no per-clip {metric!r} for {missing}; rows with per-clip values: {list(self.clip_values)}")
+        a, b = (self.clip_values[r][metric] for r in (row_a, row_b))
+        unit = self.estimate(row_a, metric).unit if metric in self.rows.get(row_a, {}) else None
+        return paired_bootstrap(
+            a,
+            b,
+            self.clip_weights.get(metric),
+            resamples=resamples or BOOTSTRAP_RESAMPLES,
+            seed=self.seed,
+            unit=unit,
+        )
+
     def joined(self, other: EvaluationTable, prefix: str = "") -> EvaluationTable:
         """This table with ``other``'s rows added after its own, named ``prefix + row``, with their :attr:`samples`
         (which :meth:`with_rows` cannot carry): e.g. another model's or decoder's rows measured on the same data,
@@ -216,9 +241,13 @@ class EvaluationTable:
             **self.samples,
             **{prefix + name: dict(other.samples[name]) for name in other.rows if name in other.samples},
         }
+        clips = {
+            **self.clip_values,
+            **{prefix + name: dict(other.clip_values[name]) for name in other.rows if name in other.clip_values},
+        }
         lead = f"{prefix.strip(' :')} rows: " if prefix.strip(" :") else ""
         notes = self.notes + [lead + note for note in other.notes if note not in self.notes]
-        return replace(table, samples=samples, notes=notes)
+        return replace(table, samples=samples, clip_values=clips, notes=notes)
 
     def to_json_dict(self) -> dict[str, Any]:
         """Plain JSON types; a non-finite number becomes ``null`` (JSON has no NaN)."""

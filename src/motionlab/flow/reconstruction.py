@@ -14,13 +14,13 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
 import torch
 
-from motionlab.metrics import ClipJoints, fid, mpjpe, sjpe_variants
+from motionlab.metrics import ClipJoints, fid, mpjpe_per_clip, sjpe_variants
 from motionlab.representation import get_skeleton
 
 SKELETON_OF_DIM = {263: "t2m", 251: "kit"}
@@ -109,9 +109,14 @@ class ReconstructionScores:
     noise_sjpe_ratio: float
     static_sjpe_ratio: float
     joint_jerk: float  # mean jerk magnitude of the sJPE joints (m/s³), to set beside the ground truth's
+    # Each clip's value of the metrics that are means over clips (sJPE and its parts) or over frames (MPJPE, weighted
+    # by ``clip_frames``), in clip order: what a paired bootstrap over the test clips resamples.
+    per_clip: dict[str, np.ndarray] = field(default_factory=dict, compare=False, repr=False)
+    clip_frames: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     def as_dict(self) -> dict[str, float]:
-        return asdict(self)
+        """The table's columns (the per-clip values left out)."""
+        return {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("per_clip", "clip_frames")}
 
 
 def joints_of(features: Sequence[np.ndarray]) -> list[np.ndarray]:
@@ -166,9 +171,17 @@ def reconstruction_scores(
         reference = gt_embeddings if gt_embeddings is not None else embed(list(gt_features))
         distance = fid(reference, embed(list(pred_features)))
     mean_jerk = float(np.mean(jerk.jerk_pred_per_clip))
+    mpjpe_clips = to_mm * mpjpe_per_clip(pred_joints, gt_joints)  # (N,), pooled over poses below
+    frames = gt_joints.lengths
+    per_clip = {
+        "mpjpe_mm": mpjpe_clips,
+        "sjpe": jerk.sjpe_per_clip,
+        "noise_sjpe": jerk.noise_per_clip,
+        "static_sjpe": jerk.static_per_clip,
+    }
     return ReconstructionScores(
         distance,
-        to_mm * mpjpe(pred_joints, gt_joints),
+        float(np.average(mpjpe_clips, weights=frames)),
         jerk.sjpe,
         jerk.noise,
         jerk.static,
@@ -176,6 +189,8 @@ def reconstruction_scores(
         ratio.noise,
         ratio.static,
         mean_jerk,
+        per_clip,
+        frames,
     )
 
 

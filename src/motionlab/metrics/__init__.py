@@ -29,7 +29,7 @@ from .jerk import (
     transition_windows,
 )
 from .joints import ClipJoints
-from .mpjpe import mpjpe
+from .mpjpe import mpjpe, mpjpe_per_clip
 from .official import OfficialEvaluator, load_official_evaluator, official_paths
 from .retrieval import RetrievalScores, euclidean_distance_matrix, mm_dist, r_precision, retrieval_metrics
 from .sjpe import (
@@ -93,6 +93,7 @@ __all__ = [
     "mean_ci",
     "mm_dist",
     "mpjpe",
+    "mpjpe_per_clip",
     "multimodality",
     "noise_sjpe_by_phase",
     "official_paths",

@@ -19,18 +19,34 @@ def mpjpe(pred_joints, gt_joints) -> float:
     DisCoRD's "MAE"), or two :class:`ClipJoints` of the same clips (pooled likewise, without a copy).
     Joint 0 is the pelvis: subtracting it removes the global trajectory.
     """
+    per_pose, n_joints = _pose_errors(pred_joints, gt_joints)
+    return float(per_pose.sum() / (per_pose.size * n_joints))
+
+
+def mpjpe_per_clip(pred_joints: ClipJoints, gt_joints: ClipJoints) -> np.ndarray:
+    """MPJPE of each clip ``(N,)``; weighted by ``lengths`` their mean is :func:`mpjpe` of the pooled poses."""
+    if not (isinstance(pred_joints, ClipJoints) and isinstance(gt_joints, ClipJoints)):
+        raise ValueError("mpjpe_per_clip needs two ClipJoints (ClipJoints.from_features or .from_joints)")
+    if not np.array_equal(pred_joints.lengths, gt_joints.lengths):
+        raise ValueError("pred_joints and gt_joints must hold the same clips: their clip lengths differ")
+    per_pose, n_joints = _pose_errors(pred_joints, gt_joints)
+    return np.add.reduceat(per_pose, pred_joints.starts) / (pred_joints.lengths * n_joints)
+
+
+def _pose_errors(pred_joints, gt_joints) -> tuple[np.ndarray, int]:
+    """Each pose's summed pelvis-aligned joint error ``(P,)`` and the number of joints."""
     pred, gt = _pool(pred_joints, "pred_joints"), _pool(gt_joints, "gt_joints")
     if pred.shape != gt.shape:
         raise ValueError(f"pred_joints {pred.shape} and gt_joints {gt.shape} must have the same shape")
     if pred.ndim < 2 or pred.shape[-1] != 3:
         raise ValueError(f"joints must have shape (..., J, 3), got {pred.shape}")
     pred, gt = pred.reshape(-1, *pred.shape[-2:]), gt.reshape(-1, *gt.shape[-2:])  # (P, J, 3): poses
-    total = 0.0
+    out = np.empty(len(pred))
     for s in range(0, len(pred), _BLOCK_POSES):  # a cache-sized block at a time: one pass over memory
         error = pred[s : s + _BLOCK_POSES] - gt[s : s + _BLOCK_POSES]  # (B, J, 3)
         error -= error[:, :1]  # aligning both pelvises = subtracting the pelvis's error
-        total += np.sqrt(squared_length(error)).sum()
-    return float(total / (pred.shape[0] * pred.shape[1]))
+        out[s : s + len(error)] = np.sqrt(squared_length(error)).sum(axis=1)
+    return out, pred.shape[1]
 
 
 _BLOCK_POSES = 2048

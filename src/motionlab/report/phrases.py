@@ -36,7 +36,10 @@ class Comparison:
 
     ``training``, where measured, is how far ``a − b`` moves between training runs of the models behind the two
     numbers (:meth:`motionlab.report.spread.TrainingSpread.difference`): its half-width joins the interval of the
-    difference, so a gap that retraining alone produces is not read as an effect.
+    difference, so a gap that retraining alone produces is not read as an effect. ``test_set``, where measured, is
+    ``a − b`` paired over the test clips both were measured on (:func:`motionlab.estimate.paired_bootstrap`): how far
+    drawing another test set moves the difference, which a deterministic measurement's own interval lacks. It joins
+    likewise.
     """
 
     a: Estimate
@@ -45,19 +48,25 @@ class Comparison:
     quantity: str = ""
     against_zero: bool = False  # a measured difference (a) against 0 (b): see difference()
     training: Estimate | None = None  # a − b between training runs: the spread one run's difference carries
+    test_set: Estimate | None = None  # a − b paired over the test clips: the spread of drawing the test set
 
     @property
     def has_interval(self) -> bool:
-        return self.a.half_width > 0 or self.b.half_width > 0 or self._training_half > 0
+        return self.a.half_width > 0 or self.b.half_width > 0 or self._training_half > 0 or self._test_set_half > 0
 
     @property
     def _training_half(self) -> float:
         return 0.0 if self.training is None else self.training.half_width
 
     @property
+    def _test_set_half(self) -> float:
+        return 0.0 if self.test_set is None else self.test_set.half_width
+
+    @property
     def apart(self) -> bool:
         """The one rule: the 95% interval of the difference excludes 0 (with the training runs' spread in it)."""
-        b = Estimate(self.b.mean, math.hypot(self.b.half_width, self._training_half), self.b.n, self.b.unit)
+        extra = math.hypot(self.b.half_width, self._training_half, self._test_set_half)
+        b = Estimate(self.b.mean, extra, self.b.n, self.b.unit)
         return self.a.apart_from(b)
 
     @property
@@ -83,10 +92,15 @@ class Comparison:
         if self.against_zero:
             where = {LOWER: "below 0", HIGHER: "above 0", SAME: "not distinguishable from 0 at 95%"}[self.verdict]
             return f"{prefix}{name_a} = {self.a}, {where}"
-        retrained = ""
+        retrained = ""  # what moves the difference besides the measurement: retraining, another draw of test clips
         if self.training is not None:
             spread = format_estimate(self._training_half, unit=self.a.unit, significant=2)
-            retrained = f" (retraining moves the difference by ± {spread} over {self.training.n} training seeds)"
+            retrained = f"retraining moves the difference by ± {spread} over {self.training.n} training seeds"
+        if self.test_set is not None:
+            spread = format_estimate(self._test_set_half, unit=self.a.unit, significant=2)
+            verb = ", another draw of test clips" if retrained else "another draw of test clips moves the difference"
+            retrained += f"{verb} by ± {spread}: a paired bootstrap over {self.test_set.n} clips"
+        retrained = f" ({retrained})" if retrained else ""
         if self.verdict == SAME:
             return f"{prefix}{name_a} {self.a} and {name_b} {self.b} are not distinguishable at 95%{retrained}"
         return f"{prefix}{name_a} {self.a} is {self.verdict} than {name_b} {self.b}{retrained}"
@@ -109,12 +123,17 @@ def compare(
     *,
     quantity: str = "",
     training: Estimate | None = None,
+    test_set: Estimate | None = None,
 ) -> Comparison:
     """Compare two independent estimates (or plain numbers, which carry no interval) by the one rule; ``training``:
-    the spread of ``a − b`` between training runs, where it was measured (see :class:`Comparison`)."""
-    if training is not None and not isinstance(training, Estimate):
-        raise TypeError(f"training must be an Estimate (a − b across training runs), got {type(training).__name__}")
-    return Comparison(_estimate(a, "a"), _estimate(b, "b"), (name_a, name_b), quantity, training=training)
+    the spread of ``a − b`` between training runs, ``test_set``: ``a − b`` paired over the test clips, each where it
+    was measured (see :class:`Comparison`)."""
+    for name, value in (("training", training), ("test_set", test_set)):
+        if value is not None and not isinstance(value, Estimate):
+            raise TypeError(f"{name} must be an Estimate of a − b, got {type(value).__name__}")
+    return Comparison(
+        _estimate(a, "a"), _estimate(b, "b"), (name_a, name_b), quantity, training=training, test_set=test_set
+    )
 
 
 def difference(d: Estimate, name: str = "the difference", *, quantity: str = "") -> Comparison:

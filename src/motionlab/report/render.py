@@ -162,13 +162,20 @@ def _study(value, kind: type, load, profile: str, name: str):
 
 
 def retraining_phrase(rule, recorded: Mapping[str, Result], spread: TrainingSpread | None) -> str:
-    """How far retraining moves each difference the rule judges (``""`` where no spread applies)."""
+    """How far retraining, and drawing another test set, move each difference the rule judges (``""`` where neither
+    was measured)."""
     parts = []
     for a, b in getattr(rule, "pairs", ()):
         if a in recorded and b in recorded and (d := training_difference(recorded[a], recorded[b], spread)):
             unit = recorded[a].unit
             parts.append(f"± {format_estimate(d.half_width, unit=unit, significant=2)} over {d.n} training seeds")
-    return f"; retraining moves the difference by {', '.join(parts)}" if parts else ""
+    text = f"; retraining moves the difference by {', '.join(parts)}" if parts else ""
+    clips = rule.test_set(recorded) if hasattr(rule, "test_set") else None
+    if clips is not None:
+        half = format_estimate(clips.estimate.half_width, unit=clips.unit, significant=2)
+        verb = "another draw of test clips" if parts else "another draw of test clips moves the difference"
+        text += f"; {verb} by ± {half} (a paired bootstrap over the clips)"
+    return text
 
 
 def spread_table(spread: TrainingSpread, claims: Sequence[Claim] = CLAIMS) -> Table:

@@ -63,11 +63,14 @@ def training_difference(a: Result, b: Result, spread: TrainingSpread | None) -> 
     return spread.difference(a.name, b.name)
 
 
-def _compare(a: Result, b: Result, expected: str, spread: TrainingSpread | None = None) -> str:
+def _compare(
+    a: Result, b: Result, expected: str, spread: TrainingSpread | None = None, test_set: Result | None = None
+) -> str:
     """Verdict of the expectation that ``a`` is ``"lower"`` (or ``"higher"``) than ``b``, by the one rule
     (:meth:`motionlab.report.Comparison.judge`): "inconclusive" when a side carries an interval and the 95% interval
     of the difference, half-width ``sqrt(h_a² + h_b²)`` for independent estimates (``+ h_t²``, the spread between
-    training runs, where ``spread`` measured it: :mod:`motionlab.report.spread`), contains 0.
+    training runs, where ``spread`` measured it: :mod:`motionlab.report.spread`; ``+ h_c²``, ``a − b`` paired over the
+    test clips, where ``test_set`` records it), contains 0.
 
     Not "when their intervals overlap": two 95% intervals can overlap while the difference is clear (for equal
     widths the overlap test works at about the 99.5% level, not 95%). Where both were measured on the same samples,
@@ -75,7 +78,8 @@ def _compare(a: Result, b: Result, expected: str, spread: TrainingSpread | None 
     """
     from motionlab.report import compare
 
-    return compare(a.estimate, b.estimate, training=training_difference(a, b, spread)).judge(expected)
+    clips = test_set.estimate if test_set is not None else None
+    return compare(a.estimate, b.estimate, training=training_difference(a, b, spread), test_set=clips).judge(expected)
 
 
 def _combine(verdicts: Sequence[str]) -> str:
@@ -88,10 +92,12 @@ def _combine(verdicts: Sequence[str]) -> str:
 
 @dataclass(frozen=True)
 class Less:
-    """``a < b``."""
+    """``a < b``. ``clips``: the key of ``a − b`` paired over the test clips (an interval from a bootstrap), where a
+    chapter records one; it joins the verdict's interval when recorded (the papers' numbers have none)."""
 
     a: str
     b: str
+    clips: str | None = None
 
     @property
     def keys(self) -> tuple[str, ...]:
@@ -103,7 +109,11 @@ class Less:
         return ((self.a, self.b),)
 
     def judge(self, r: Mapping[str, Result], spread: TrainingSpread | None = None) -> str:
-        return _compare(r[self.a], r[self.b], "lower", spread)
+        return _compare(r[self.a], r[self.b], "lower", spread, self.test_set(r))
+
+    def test_set(self, r: Mapping[str, Result]) -> Result | None:
+        """The recorded ``a − b`` paired over the test clips (None where the rule names none or none was recorded)."""
+        return r.get(self.clips) if self.clips else None
 
     def describe(self) -> str:
         return f"{self.a} < {self.b}"
@@ -118,7 +128,7 @@ class Greater(Less):
     """``a > b``."""
 
     def judge(self, r: Mapping[str, Result], spread: TrainingSpread | None = None) -> str:
-        return _compare(r[self.a], r[self.b], "higher", spread)
+        return _compare(r[self.a], r[self.b], "higher", spread, self.test_set(r))
 
     def describe(self) -> str:
         return f"{self.a} > {self.b}"
