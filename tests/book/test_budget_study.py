@@ -115,6 +115,26 @@ def test_budget_curves_and_their_figure(study_folder):
         plot_budget(study, {"a": ["tps/jerk_tps"], "b": ["tps/jerk_tps"]}, axes=[ax])
 
 
+def test_budgets_in_another_precision_are_labelled_with_it(study_folder):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from motionlab.viz import plot_budget
+
+    study = load_budget("laptop", study_folder)
+    assert study.precision(800) == "fp32" and not study.mixed_precision  # records without the field are fp32
+    assert "(4×)" in scale_statement(_claim("diffusion/fid_guided"), study).sentence()
+    for arm in ("dynamic", "uniform"):  # the 3,200-step models trained in bf16 (another CPU, say)
+        path = study_folder / f"{arm}-seed0-steps3200.json"
+        path.write_text(json.dumps(json.loads(path.read_text()) | {"precision": "bf16"}))
+    study = load_budget("laptop", study_folder)
+    assert study.precision(3200) == "bf16" and study.mixed_precision  # seed 1 (fp32) is in one arm: not judged
+    sentence = scale_statement(_claim("diffusion/fid_guided"), study).sentence()
+    assert "800 steps (1×, fp32): does not hold; 3,200 steps (4×, bf16)" in sentence
+    (ax,) = plot_budget(study, {"FID": ["diffusion/fid_guided"]})
+    assert [t.get_text() for t in ax.get_xticklabels()] == ["800\nfp32", "3,200\nbf16"]
+
+
 def test_the_eta_axis_takes_eta_0_and_the_paper_s_from_the_budget_study(study_folder, tmp_path):
     from motionlab.report.budget import load_eta_axis
 

@@ -50,6 +50,17 @@ class BudgetStudy:
         per_arm = [{k for arm_, k, n in self.records if arm_ == arm and n == steps} for arm in ARMS]
         return sorted(per_arm[0] & per_arm[1])
 
+    def precision(self, steps: int) -> str:
+        """The precision the models of ``steps`` were trained and sampled in (``"fp32"``, ``"bf16"``, or both joined
+        by ``/`` where the seeds it is judged on differ): a budget trained in another precision is another run."""
+        found = {self.records[arm, k, steps].get("precision", "fp32") for k in self.seeds(steps) for arm in ARMS}
+        return "/".join(sorted(found))
+
+    @property
+    def mixed_precision(self) -> bool:
+        """Whether the budgets were not all measured in one precision (then every budget is labelled with its own)."""
+        return len({self.precision(n) for n in self.budgets}) > 1
+
 
 def load_budget(profile: str, folder: str | Path | None = None) -> BudgetStudy | None:
     """The budget study recorded for ``profile`` (None where none was): the repository's
@@ -131,10 +142,16 @@ class Scale:
     verdicts: dict[int, str]
     laptop_steps: int
     largest: str  # our numbers at the largest budget, as the claims table phrases them
+    precisions: dict[int, str] = field(default_factory=dict)  # per budget, where the budgets' precisions differ
 
     def sentence(self) -> str:
         steps = sorted(self.verdicts)
-        tried = "; ".join(f"{n:,} steps ({n / self.laptop_steps:g}×): {self.verdicts[n]}" for n in steps)
+
+        def budget(n: int) -> str:
+            precision = f", {self.precisions[n]}" if n in self.precisions else ""
+            return f"{n:,} steps ({n / self.laptop_steps:g}×{precision})"
+
+        tried = "; ".join(f"{budget(n)}: {self.verdicts[n]}" for n in steps)
         holding = [n for n in steps if self.verdicts[n] == HOLDS]
         if holding and all(self.verdicts[n] == HOLDS for n in steps if n >= holding[0]):
             reading = f"holds from {holding[0]:,} training steps ({holding[0] / self.laptop_steps:g}× the laptop's)"
@@ -157,7 +174,8 @@ def scale_statement(claim, study: BudgetStudy, guidance_scale: float = 4.0) -> S
         largest = claim.rule.sentence(recorded)
     if not verdicts:
         return None
-    return Scale(verdicts, study.laptop_steps, largest)
+    precisions = {n: study.precision(n) for n in verdicts} if study.mixed_precision else {}
+    return Scale(verdicts, study.laptop_steps, largest, precisions)
 
 
 def budget_curves(study: BudgetStudy, keys: Sequence[str], guidance_scale: float = 4.0) -> dict[str, list]:

@@ -264,7 +264,8 @@ def plot_budget(study, panels: Mapping[str, Sequence[str]], *, axes=None, figsiz
             ax.errorbar(steps, means, yerr=halves, marker="o", ms=3, capsize=2, label=quantity(key)[1] or key)
         ax.axvline(study.laptop_steps, color="gray", ls="--", lw=1)
         ax.set_xscale("log")
-        ax.set_xticks(study.budgets, [f"{n:,}" for n in study.budgets])
+        mixed = study.mixed_precision  # then each budget says what it was trained in
+        ax.set_xticks(study.budgets, [f"{n:,}\n{study.precision(n)}" if mixed else f"{n:,}" for n in study.budgets])
         ax.minorticks_off()
         ax.set_xlabel("training steps (dashed: the laptop's)")
         ax.set_title(title, fontsize=9)
