@@ -30,7 +30,7 @@ def frechet_distance(mu1, sigma1, mu2, sigma2) -> float:
 
     ``Tr sqrtm(S1 S2)`` is the sum of the square roots of the eigenvalues of ``S1 S2``, which has the same
     eigenvalues as the symmetric ``R S2 R`` with ``R = S1^(1/2)``. Two symmetric eigendecompositions give it:
-    about 3.5x faster than ``scipy.linalg.sqrtm`` at d = 512 (the official evaluators' route; the two agree
+    about 3x faster than ``scipy.linalg.sqrtm`` at d = 512 (the official evaluators' route; the two agree
     to about 1e-7 relative), and a singular covariance (fewer samples than dimensions) needs no special case.
     """
     mu1, mu2 = np.atleast_1d(mu1).astype(np.float64), np.atleast_1d(mu2).astype(np.float64)
@@ -40,9 +40,12 @@ def frechet_distance(mu1, sigma1, mu2, sigma2) -> float:
     if not (np.isfinite(mu1).all() and np.isfinite(mu2).all() and np.isfinite(s1).all() and np.isfinite(s2).all()):
         raise ValueError("means and covariances must be finite")
     root1 = _psd_root(s1, "sigma1")
-    _psd_root(s2, "sigma2")  # checked like sigma1; its root is not needed
+    if not np.allclose(s2, s2.T, rtol=1e-8, atol=1e-12):
+        raise ValueError("sigma2 must be a symmetric covariance matrix")
     product = root1 @ s2 @ root1
     eigenvalues = np.linalg.eigvalsh((product + product.T) / 2.0)  # symmetric up to rounding
+    if eigenvalues.min(initial=0.0) < -1e-6 * max(np.abs(eigenvalues).max(initial=0.0), 1e-300):
+        raise ValueError(f"sigma2 is not positive semi-definite (R sigma2 R has eigenvalue {eigenvalues.min():.3g})")
     diff = mu1 - mu2
     return float(diff @ diff + np.trace(s1) + np.trace(s2) - 2.0 * np.sqrt(np.clip(eigenvalues, 0.0, None)).sum())
 
