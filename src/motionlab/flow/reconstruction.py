@@ -110,13 +110,12 @@ class ReconstructionScores:
     static_sjpe_ratio: float
     joint_jerk: float  # mean jerk magnitude of the sJPE joints (m/s³), to set beside the ground truth's
     # Each clip's value of the metrics that are means over clips (sJPE and its parts) or over frames (MPJPE, weighted
-    # by ``clip_frames``), in clip order: what a paired bootstrap over the test clips resamples.
+    # by the clips' lengths), in clip order: what a paired bootstrap over the test clips resamples.
     per_clip: dict[str, np.ndarray] = field(default_factory=dict, compare=False, repr=False)
-    clip_frames: np.ndarray | None = field(default=None, compare=False, repr=False)
 
     def as_dict(self) -> dict[str, float]:
         """The table's columns (the per-clip values left out)."""
-        return {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("per_clip", "clip_frames")}
+        return {f.name: getattr(self, f.name) for f in fields(self) if f.name != "per_clip"}
 
 
 def joints_of(features: Sequence[np.ndarray]) -> list[np.ndarray]:
@@ -172,7 +171,6 @@ def reconstruction_scores(
         distance = fid(reference, embed(list(pred_features)))
     mean_jerk = float(np.mean(jerk.jerk_pred_per_clip))
     mpjpe_clips = to_mm * mpjpe_per_clip(pred_joints, gt_joints)  # (N,), pooled over poses below
-    frames = gt_joints.lengths
     per_clip = {
         "mpjpe_mm": mpjpe_clips,
         "sjpe": jerk.sjpe_per_clip,
@@ -181,7 +179,7 @@ def reconstruction_scores(
     }
     return ReconstructionScores(
         distance,
-        float(np.average(mpjpe_clips, weights=frames)),
+        float(np.average(mpjpe_clips, weights=gt_joints.lengths)),
         jerk.sjpe,
         jerk.noise,
         jerk.static,
@@ -190,7 +188,6 @@ def reconstruction_scores(
         ratio.static,
         mean_jerk,
         per_clip,
-        frames,
     )
 
 

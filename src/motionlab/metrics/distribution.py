@@ -15,14 +15,15 @@ def gaussian_stats(embeddings) -> tuple[np.ndarray, np.ndarray]:
     return x.mean(axis=0), np.cov(x, rowvar=False)
 
 
-def _psd_root(sigma: np.ndarray, name: str) -> np.ndarray:
-    """The symmetric square root of a covariance; rounding's tiny negative eigenvalues count as 0."""
+def _check_symmetric(sigma: np.ndarray, name: str) -> None:
     if not np.allclose(sigma, sigma.T, rtol=1e-8, atol=1e-12):
         raise ValueError(f"{name} must be a symmetric covariance matrix")
-    w, v = np.linalg.eigh(sigma)
-    if w.min(initial=0.0) < -1e-6 * max(np.abs(w).max(initial=0.0), 1e-300):
-        raise ValueError(f"{name} is not positive semi-definite (eigenvalue {w.min():.3g})")
-    return (v * np.sqrt(np.clip(w, 0.0, None))) @ v.T
+
+
+def _check_psd(eigenvalues: np.ndarray, name: str) -> None:
+    """Rounding leaves tiny negative eigenvalues (they count as 0); a larger one means no covariance."""
+    if eigenvalues.min(initial=0.0) < -1e-6 * max(np.abs(eigenvalues).max(initial=0.0), 1e-300):
+        raise ValueError(f"{name} is not positive semi-definite (eigenvalue {eigenvalues.min():.3g})")
 
 
 def frechet_distance(mu1, sigma1, mu2, sigma2) -> float:
@@ -32,6 +33,7 @@ def frechet_distance(mu1, sigma1, mu2, sigma2) -> float:
     eigenvalues as the symmetric ``R S2 R`` with ``R = S1^(1/2)``. Two symmetric eigendecompositions give it:
     about 3x faster than ``scipy.linalg.sqrtm`` at d = 512 (the official evaluators' route; the two agree
     to about 1e-7 relative), and a singular covariance (fewer samples than dimensions) needs no special case.
+    A negative direction of S2 shows as a negative eigenvalue of ``R S2 R``.
     """
     mu1, mu2 = np.atleast_1d(mu1).astype(np.float64), np.atleast_1d(mu2).astype(np.float64)
     s1, s2 = np.atleast_2d(sigma1).astype(np.float64), np.atleast_2d(sigma2).astype(np.float64)
@@ -39,13 +41,14 @@ def frechet_distance(mu1, sigma1, mu2, sigma2) -> float:
         raise ValueError(f"shapes do not match: mu {mu1.shape}/{mu2.shape}, sigma {s1.shape}/{s2.shape}")
     if not (np.isfinite(mu1).all() and np.isfinite(mu2).all() and np.isfinite(s1).all() and np.isfinite(s2).all()):
         raise ValueError("means and covariances must be finite")
-    root1 = _psd_root(s1, "sigma1")
-    if not np.allclose(s2, s2.T, rtol=1e-8, atol=1e-12):
-        raise ValueError("sigma2 must be a symmetric covariance matrix")
+    _check_symmetric(s1, "sigma1")
+    _check_symmetric(s2, "sigma2")
+    w, v = np.linalg.eigh(s1)
+    _check_psd(w, "sigma1")
+    root1 = (v * np.sqrt(np.clip(w, 0.0, None))) @ v.T  # S1^(1/2)
     product = root1 @ s2 @ root1
     eigenvalues = np.linalg.eigvalsh((product + product.T) / 2.0)  # symmetric up to rounding
-    if eigenvalues.min(initial=0.0) < -1e-6 * max(np.abs(eigenvalues).max(initial=0.0), 1e-300):
-        raise ValueError(f"sigma2 is not positive semi-definite (R sigma2 R has eigenvalue {eigenvalues.min():.3g})")
+    _check_psd(eigenvalues, "sigma2")
     diff = mu1 - mu2
     return float(diff @ diff + np.trace(s1) + np.trace(s2) - 2.0 * np.sqrt(np.clip(eigenvalues, 0.0, None)).sum())
 
