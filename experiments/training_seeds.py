@@ -20,11 +20,14 @@ own evaluation at the profile's sizes:
     python experiments/training_seeds.py --study m2d2m --seeds 0 1 2     # laptop: ~10 CPU-min per seed
     python experiments/training_seeds.py --study transitions --seeds 0 1 2   # laptop: ~9 CPU-min per new seed (fp32)
 
-Each seed's numbers go to ``<out>/<study>-<profile>-seed<k>.json`` (written atomically; an existing one is skipped)
-with the data, the machine, the precision, the commit and the time spent: ``{"values": {"discord/sjpe_rf": ...}}``,
-every claim number the study's tables give (:func:`motionlab.evaluation.reconstruction_claim_cells`,
-:func:`~motionlab.evaluation.multi_claim_cells`). The claims table reads the folder (:mod:`motionlab.report.spread`)
-and adds to each comparison it judges the spread it finds there.
+(Those are bf16 times on Zen 5; in fp32 on an AVX2-only Zen 3 a new discord seed took ~38 CPU-min, an m2d2m seed ~12.)
+
+Each seed's numbers go to ``<out>/<study>-<profile>-<precision>-seed<k>.json`` (written atomically; an existing one is
+skipped; a run in another precision, on another machine, is another file) with the data, the machine, the precision,
+the commit and the time spent: ``{"values": {"discord/sjpe_rf": ...}}``, every claim number the study's tables give
+(:func:`motionlab.evaluation.reconstruction_claim_cells`, :func:`~motionlab.evaluation.multi_claim_cells`). The
+claims table reads the folder (:mod:`motionlab.report.spread`) and adds to each comparison it judges the spread it
+finds there, pooling the runs of every precision.
 """
 
 from __future__ import annotations
@@ -146,8 +149,9 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--seeds must be >= 0")
     torch.set_num_threads(1)  # one process per experiment on a shared machine
     args.out.mkdir(parents=True, exist_ok=True)
+    precision = machine_stamp()["precision"]  # a run in another precision is another run: its own file
     for seed in args.seeds:
-        path = args.out / f"{args.study}-{args.profile}-seed{seed}.json"
+        path = args.out / f"{args.study}-{args.profile}-{precision}-seed{seed}.json"
         if path.exists():
             print(f"seed {seed}: recorded already ({path})", file=sys.stderr)
             continue

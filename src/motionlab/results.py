@@ -26,6 +26,7 @@ from motionlab.report.render import (
     count_sentence,
     judge,
     spread_table,
+    verdicts_by_run,
 )
 from motionlab.report.rules import AtMost, Between, Claim, Evidence, Greater, Increasing, Less, Rule, Within
 from motionlab.report.spread import TrainingSpread, load_spread
@@ -89,4 +90,5 @@ __all__ = [
     "record",
     "results_dir",
     "spread_table",
+    "verdicts_by_run",
 ]

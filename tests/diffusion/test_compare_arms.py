@@ -11,7 +11,7 @@ from scipy.special import stdtrit
 
 from motionlab.estimate import Estimate, mean_ci
 from motionlab.evaluation.t2m import compare_arms, seed_replica
-from motionlab.report.spread import TrainingSpread
+from motionlab.report.spread import Run, TrainingSpread
 
 
 class _Table:
@@ -60,8 +60,8 @@ def test_with_replicates_in_the_table_the_training_variance_is_t_over_the_seeds(
 def test_with_seed_0_alone_the_study_supplies_the_spread():
     fid = {("dynamic", 0): [10.0, 11.0, 12.0], ("uniform", 0): [12.0, 12.5, 13.0]}
     study = {
-        "transitions/fid_dynamic": {0: 11.0, 1: 13.0, 2: 9.5},
-        "transitions/fid_uniform": {0: 12.5, 1: 11.5, 2: 10.0},
+        "transitions/fid_dynamic": {Run("fp32", 0): 11.0, Run("fp32", 1): 13.0, Run("fp32", 2): 9.5},
+        "transitions/fid_uniform": {Run("fp32", 0): 12.5, Run("fp32", 1): 11.5, Run("fp32", 2): 10.0},
     }
     spread = TrainingSpread("laptop", "embedded-test", study)
     arms = compare_arms(_table((0,), fid), (0,), spread)
@@ -74,12 +74,16 @@ def test_with_seed_0_alone_the_study_supplies_the_spread():
     assert arms.training.half_width == pytest.approx(math.hypot(same.half_width, spread_half))  # ... widened
     assert (arms.gap_label, arms.gap_source) == ("seed 1 − seed 0", "the training-seed study's numbers")
     assert arms.seed_gaps == {"uniform": Estimate(11.5 - 12.5), "dynamic": Estimate(13.0 - 11.0)}
-    assert "study" in arms.source and "0, 1, 2" in arms.source
+    assert "study" in arms.source and "seed 2 (fp32)" in arms.source
 
 
 def test_without_replicates_or_study_there_is_no_training_variance():
     fid = {("dynamic", 0): [10.0, 11.0, 12.0], ("uniform", 0): [12.0, 12.5, 13.0]}
-    too_few = TrainingSpread("laptop", "x", {"transitions/fid_dynamic": {0: 1.0}, "transitions/fid_uniform": {0: 2.0}})
+    too_few = TrainingSpread(
+        "laptop",
+        "x",
+        {"transitions/fid_dynamic": {Run("fp32", 0): 1.0}, "transitions/fid_uniform": {Run("fp32", 0): 2.0}},
+    )
     for spread in (None, too_few):
         arms = compare_arms(_table((0,), fid), (0,), spread)
         assert arms.training is None and arms.seed_gaps == {} and arms.gap_label == arms.gap_source == ""

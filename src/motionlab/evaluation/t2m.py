@@ -366,15 +366,16 @@ def compare_arms(table: EvaluationTable, seeds: tuple[int, ...] = (0,), spread: 
         return ArmsComparison(
             fid, top3, same_seed, {}, "", "", None, "training seed 0 only: no training-seed study on this data"
         )
-    study = spread.seeds(*keys)  # sorted, at least MIN_SEEDS of them
+    study = spread.runs(*keys)  # sorted, at least MIN_SEEDS of them
     gaps = {
         a: Estimate(spread.values[f"transitions/fid_{a}"][study[1]] - spread.values[f"transitions/fid_{a}"][study[0]])
         for a in ARMS
     }
     # another training run moves seed 0's difference by a zero-centred amount of the study's spread: in quadrature
     training = same_seed.minus(Estimate(0.0, spread_d.half_width, spread_d.n))
-    source = f"the training-seed study's {len(study)} seeds per arm ({', '.join(map(str, study))})"
-    label, how = f"seed {study[1]} − seed {study[0]}", "the training-seed study's numbers"
+    source = f"the training-seed study's {len(study)} runs per arm ({', '.join(map(str, study))})"
+    # runs sort by precision, then seed: the first two are seeds of one precision wherever one has two
+    label, how = f"seed {study[1].seed} − seed {study[0].seed}", "the training-seed study's numbers"
     return ArmsComparison(fid, top3, same_seed, gaps, label, how, training, source)
 
 

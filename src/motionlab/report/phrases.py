@@ -95,7 +95,7 @@ class Comparison:
         retrained = ""  # what moves the difference besides the measurement: retraining, another draw of test clips
         if self.training is not None:
             spread = format_estimate(self._training_half, unit=self.a.unit, significant=2)
-            retrained = f"retraining moves the difference by ± {spread} over {self.training.n} training seeds"
+            retrained = f"retraining moves the difference by ± {spread} over {self.training.n} training runs"
         if self.test_set is not None:
             spread = format_estimate(self._test_set_half, unit=self.a.unit, significant=2)
             verb = ", another draw of test clips" if retrained else "another draw of test clips moves the difference"

@@ -5,7 +5,7 @@ from __future__ import annotations
 import html
 import math
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from motionlab.estimate import format_estimate, format_number
 from motionlab.profiles import get_profile
@@ -168,7 +168,7 @@ def retraining_phrase(rule, recorded: Mapping[str, Result], spread: TrainingSpre
     for a, b in getattr(rule, "pairs", ()):
         if a in recorded and b in recorded and (d := training_difference(recorded[a], recorded[b], spread)):
             unit = recorded[a].unit
-            parts.append(f"± {format_estimate(d.half_width, unit=unit, significant=2)} over {d.n} training seeds")
+            parts.append(f"± {format_estimate(d.half_width, unit=unit, significant=2)} over {d.n} training runs")
     text = f"; retraining moves the difference by {', '.join(parts)}" if parts else ""
     clips = rule.test_set(recorded) if hasattr(rule, "test_set") else None
     if clips is not None:
@@ -187,16 +187,53 @@ def spread_table(spread: TrainingSpread, claims: Sequence[Claim] = CLAIMS) -> Ta
             difference = spread.difference(a, b)
             if difference is None:
                 continue
-            seeds, half = spread.seeds(a, b), difference.half_width
+            runs, half = spread.runs(a, b), difference.half_width
             decimals = max(0, 1 - math.floor(math.log10(half))) if half > 0 else None  # two digits of the spread
-            per_seed = ", ".join(format_number(spread.values[a][s] - spread.values[b][s], decimals) for s in seeds)
+            by_precision: dict[str, list[str]] = {}
+            for r in runs:
+                by_precision.setdefault(r.precision, []).append(
+                    format_number(spread.values[a][r] - spread.values[b][r], decimals)
+                )
+            per_run = "; ".join(f"{p}: {', '.join(v)}" for p, v in by_precision.items())
             (name, condition_a), (_, condition_b) = quantity(a), quantity(b)
             label = f"{claim.statement} ({name}: {condition_a} − {condition_b})"
-            rows[label] = {"training seeds": len(seeds), "a − b on each seed": per_seed}
+            rows[label] = {"training runs": len(runs), "a − b on each run": per_run}
             rows[label]["± one run (t · sd)"] = format_number(half, decimals)
     if not rows:
         raise ValueError("the training-seed study measured none of these claims' comparisons")
     return Table("claim (a − b)", rows, notes=(f"measured on {spread.data}: " + "; ".join(spread.measured),))
+
+
+def verdicts_by_run(spread: TrainingSpread, recorded: Mapping[str, Result], claims: Sequence[Claim] = CLAIMS) -> Table:
+    """Would a build on another machine read the same verdicts? Each claim whose numbers the training-run study
+    measured, judged as a build whose models were each recorded run (a seed, in bf16 on one CPU or fp32 on another)
+    would judge it: the run's numbers in place of the chapter's, each keeping the chapter's measurement interval, and
+    the same pooled spread. A row whose verdicts differ between runs is one that another machine can flip.
+    """
+    rows: dict[str, dict] = {}
+    for claim in claims:
+        studied = [k for k in claim.keys if k in spread.values]
+        runs = spread.runs(*studied) if studied else []
+        if not runs or any(k not in recorded for k in claim.keys):
+            continue
+        verdicts = {}
+        for run in runs:
+            as_run = dict(recorded)
+            for key in studied:
+                shift = spread.values[key][run] - recorded[key].value
+                ci = recorded[key].ci
+                as_run[key] = replace(
+                    recorded[key],
+                    value=recorded[key].value + shift,
+                    ci=None if ci is None else (ci[0] + shift, ci[1] + shift),
+                )
+            verdicts[str(run)] = claim.rule.judge(as_run, spread)
+        row = {"this build": claim.rule.judge(recorded, spread), **verdicts}
+        row["agree"] = "yes" if len(set(row.values())) == 1 else "no"
+        rows[f"{claim.paper}: {claim.statement}"] = row
+    if not rows:
+        raise ValueError("the training-run study measured none of these claims' numbers")
+    return Table("claim", rows, notes=(f"measured on {spread.data}: " + "; ".join(spread.measured),))
 
 
 def judge(

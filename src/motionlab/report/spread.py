@@ -3,14 +3,15 @@
 A chapter's number comes from one trained model. Its interval (sampling seeds, test clips) says how well that model
 was measured, not how far another training run — another seed, another CPU, another precision — would land. A
 verdict judged on it alone can flip between two machines. The training-seed study (``experiments/training_seeds.py``)
-trains the same models again with other seeds and records every claim number per seed under
-``book/data/training_seeds/embedded-v<N>/``; :class:`TrainingSpread` reads those files.
+trains the same models again with other seeds, on machines of more than one precision, and records every claim number
+per run under ``book/data/training_seeds/embedded-v<N>/``; :class:`TrainingSpread` reads those files.
 
 The rule (stated on chapter 99): for a comparison of ``a`` with ``b`` whose numbers were measured on ``k >= 3``
-training seeds, the per-seed differences ``d_s = a_s − b_s`` give the spread of one training run's difference,
-``t_{0.975, k−1} · sd(d)``; the verdict's 95% interval of ``a − b`` adds it in quadrature to the measurement's
-(:class:`motionlab.report.Comparison`'s ``training``). A difference that retraining alone can produce reads
-"inconclusive", on every machine.
+training runs (seeds, in each precision recorded), the per-run differences ``d_s = a_s − b_s`` give the spread of
+one training run's difference, ``t_{0.975, k−1} · sd(d)``; the verdict's 95% interval of ``a − b`` adds it in
+quadrature to the measurement's (:class:`motionlab.report.Comparison`'s ``training``). A difference that retraining
+alone can produce reads "inconclusive"; :func:`motionlab.report.render.verdicts_by_run` checks how far that makes the
+verdicts agree between machines.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 from motionlab.estimate import Estimate
 
@@ -27,33 +29,46 @@ MIN_SEEDS = 3  # fewer seeds give no usable spread (t with one degree of freedom
 FOLDER = ("book", "data", "training_seeds")
 
 
+class Run(NamedTuple):
+    """One training run of a study's models: the precision it was trained in and its seed. Seed 0 in bf16 on one CPU
+    and seed 0 in fp32 on another are two runs (the book's model on each machine), and both join the spread."""
+
+    precision: str
+    seed: int
+
+    def __str__(self) -> str:
+        return f"seed {self.seed} ({self.precision})"
+
+
 @dataclass(frozen=True)
 class TrainingSpread:
-    """Claim numbers measured on several training seeds of the same models: ``values[key][seed]``.
+    """Claim numbers measured on several training runs of the same models: ``values[key][run]``
+    (:class:`Run`: a seed in a precision).
 
     ``data`` is the dataset key the numbers were measured on (a spread applies only to results on that data),
-    ``measured`` one line per seed: where and how it was measured.
+    ``measured`` one line per run: where and how it was measured.
     """
 
     profile: str
     data: str
-    values: dict[str, dict[int, float]] = field(default_factory=dict)
+    values: dict[str, dict[Run, float]] = field(default_factory=dict)
     measured: tuple[str, ...] = ()
 
-    def seeds(self, *keys: str) -> list[int]:
-        """The training seeds on which every one of ``keys`` was measured (sorted)."""
+    def runs(self, *keys: str) -> list[Run]:
+        """The training runs on which every one of ``keys`` was measured (sorted by precision, then seed)."""
         common = set.intersection(*(set(self.values.get(k, {})) for k in keys)) if keys else set()
         return sorted(common)
 
     def difference(self, a: str, b: str) -> Estimate | None:
-        """``a − b`` across the training seeds both were measured on: the mean difference, and as the half-width
-        ``t_{0.975, k−1} · sd`` the spread of *one* training run's difference around it (None below ``MIN_SEEDS``)."""
+        """``a − b`` across the training runs both were measured on: the mean difference, and as the half-width
+        ``t_{0.975, k−1} · sd`` the spread of *one* training run's difference around it (None below ``MIN_SEEDS``).
+        Runs in two precisions pool: a shift between them counts as spread, as a reader's machine is another run."""
         from scipy.special import stdtrit
 
-        seeds = self.seeds(a, b)
-        if len(seeds) < MIN_SEEDS:
+        runs = self.runs(a, b)
+        if len(runs) < MIN_SEEDS:
             return None
-        d = [self.values[a][s] - self.values[b][s] for s in seeds]
+        d = [self.values[a][r] - self.values[b][r] for r in runs]
         mean = sum(d) / len(d)
         sd = math.sqrt(sum((x - mean) ** 2 for x in d) / (len(d) - 1))
         return Estimate(mean, float(stdtrit(len(d) - 1, 0.975)) * sd, len(d))
@@ -75,11 +90,13 @@ def find_folder(parts: Sequence[str], start: Path | None = None) -> Path | None:
 
 
 def read_spread(files: Iterable[Path], profile: str) -> TrainingSpread | None:
-    """The spread in ``files`` (the study's ``<study>-<profile>-seed<k>.json``) for ``profile``; None if none match.
+    """The spread in ``files`` (the study's ``<study>-<profile>-<precision>-seed<k>.json``) for ``profile``; None if
+    none match.
 
-    Every file must be on the same data; a seed recorded twice (two studies of one chain) is an error.
+    Every file must be on the same data; a run (seed and precision) recorded twice (two studies of one chain) is an
+    error.
     """
-    values: dict[str, dict[int, float]] = {}
+    values: dict[str, dict[Run, float]] = {}
     data, measured = None, []
     for path in sorted(files):
         record = json.loads(Path(path).read_text())
@@ -87,13 +104,14 @@ def read_spread(files: Iterable[Path], profile: str) -> TrainingSpread | None:
             continue
         if data is not None and record["data"] != data:
             raise ValueError(f"{path} was measured on {record['data']}, the others on {data}")
-        data, seed, study = record["data"], int(record["training_seed"]), record["study"]
+        data, study = record["data"], record["study"]
+        run = Run(record["precision"], int(record["training_seed"]))
         for key, value in record["values"].items():
-            per_seed = values.setdefault(key if "/" in key else f"{study}/{key}", {})
-            if seed in per_seed:
-                raise ValueError(f"{path}: training seed {seed} of {study}/{key} is recorded twice")
-            per_seed[seed] = float(value)
-        measured.append(f"{study} seed {seed}: {record['cpu']}, {record['precision']}, commit {record['commit']}")
+            per_run = values.setdefault(key if "/" in key else f"{study}/{key}", {})
+            if run in per_run:
+                raise ValueError(f"{path}: training {run} of {study}/{key} is recorded twice")
+            per_run[run] = float(value)
+        measured.append(f"{study} {run}: {record['cpu']}, {record['precision']}, commit {record['commit']}")
     if data is None:
         return None
     return TrainingSpread(profile, data, values, tuple(measured))
