@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 
 import pytest
 from scipy.special import stdtrit
@@ -213,3 +214,6 @@ def test_verdicts_by_run_judge_each_recorded_run_in_place_of_the_book(tmp_path):
     other = Claim("DisCoRD", "Table 1", "c", "", Less("discord/c", "discord/b"))
     with pytest.raises(ValueError, match="measured none"):
         verdicts_by_run(load_spread("laptop", tmp_path), recorded, [other])
+    elsewhere = {k: replace(r, note="DisCoRD; data real-humanml3d") for k, r in recorded.items()}
+    with pytest.raises(ValueError, match="measured none"):  # the study's runs are not a real-data chapter's runs
+        verdicts_by_run(load_spread("laptop", tmp_path), elsewhere, [claim])

@@ -212,9 +212,13 @@ def verdicts_by_run(spread: TrainingSpread, recorded: Mapping[str, Result], clai
     """
     rows: dict[str, dict] = {}
     for claim in claims:
-        studied = [k for k in claim.keys if k in spread.values]
+        if any(k not in recorded for k in claim.keys):
+            continue
+        # the keys a run changes: the study measured them on the chapter's data (a real-data chapter's numbers, and
+        # ground truth, whose note names no model's data, stay as recorded)
+        studied = [k for k in claim.keys if k in spread.values and spread.applies_to(recorded[k].note)]
         runs = spread.runs(*studied) if studied else []
-        if not runs or any(k not in recorded for k in claim.keys):
+        if not runs:
             continue
         verdicts = {}
         for run in runs:
@@ -224,7 +228,7 @@ def verdicts_by_run(spread: TrainingSpread, recorded: Mapping[str, Result], clai
                 ci = recorded[key].ci
                 as_run[key] = replace(
                     recorded[key],
-                    value=recorded[key].value + shift,
+                    value=spread.values[key][run],
                     ci=None if ci is None else (ci[0] + shift, ci[1] + shift),
                 )
             verdicts[str(run)] = claim.rule.judge(as_run, spread)
