@@ -94,3 +94,15 @@ def test_without_replicates_or_study_there_is_no_training_variance():
 def test_seeds_must_start_with_0_and_be_distinct(seeds):
     with pytest.raises(ValueError, match="start with 0"):
         compare_arms(_table((0,), {("dynamic", 0): [1.0], ("uniform", 0): [1.0]}), seeds)
+
+
+def test_a_seed_gap_across_two_precisions_names_both_runs():
+    fid = {("dynamic", 0): [10.0, 11.0, 12.0], ("uniform", 0): [12.0, 12.5, 13.0]}
+    runs = (Run("bf16", 0), Run("fp32", 0), Run("fp32", 1))
+    study = {
+        "transitions/fid_dynamic": dict(zip(runs, (11.0, 13.0, 9.5), strict=True)),
+        "transitions/fid_uniform": dict(zip(runs, (12.5, 11.5, 10.0), strict=True)),
+    }
+    arms = compare_arms(_table((0,), fid), (0,), TrainingSpread("laptop", "embedded-test", study))
+    assert arms.gap_label == "seed 0 (fp32) − seed 0 (bf16)"
+    assert arms.seed_gaps["dynamic"] == Estimate(13.0 - 11.0)

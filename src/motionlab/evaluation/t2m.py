@@ -374,8 +374,10 @@ def compare_arms(table: EvaluationTable, seeds: tuple[int, ...] = (0,), spread: 
     # another training run moves seed 0's difference by a zero-centred amount of the study's spread: in quadrature
     training = same_seed.minus(Estimate(0.0, spread_d.half_width, spread_d.n))
     source = f"the training-seed study's {len(study)} runs per arm ({', '.join(map(str, study))})"
-    # runs sort by precision, then seed: the first two are seeds of one precision wherever one has two
-    label, how = f"seed {study[1].seed} − seed {study[0].seed}", "the training-seed study's numbers"
+    # two runs in different precisions differ in more than the seed: the label then names both
+    same = study[0].precision == study[1].precision
+    label = f"seed {study[1].seed} − seed {study[0].seed}" if same else f"{study[1]} − {study[0]}"
+    how = "the training-seed study's numbers"
     return ArmsComparison(fid, top3, same_seed, gaps, label, how, training, source)
 
 
