@@ -54,6 +54,7 @@ class JobResult:
 class _Running:
     job: Job
     started: float
+    pool: ProcessPoolExecutor | None = None  # the job's own one-worker pool (see _Scheduler)
     step: int = 0
     total: int = 0
     last_line: float = field(default=0.0)
@@ -179,7 +180,13 @@ def run_plan(
 
 
 class _Scheduler:
-    """Starts jobs whose inputs are done, collects results and progress, prints the lines."""
+    """Starts jobs whose inputs are done, collects results and progress, prints the lines.
+
+    Each job runs in a fresh process of its own one-worker pool (a model's memory is returned when it ends). Not one
+    pool with ``max_tasks_per_child=1``: CPython 3.11–3.14 replaces such a worker from its manager thread even while
+    the pool shuts down, so a Ctrl-C could leave a just-spawned worker that no sentinel reaches, and the interpreter
+    then waits for it at exit (python/cpython#119592; measured here: the manager thread died with a ``KeyError``).
+    """
 
     def __init__(self, results: dict[str, JobResult], workers: int, threads: int, out: TextIO, line_every_s: float):
         self.results, self.workers, self.threads, self.out = results, workers, threads, out
@@ -187,15 +194,14 @@ class _Scheduler:
         self.done = {name for name, r in results.items() if r.status == "cached"}
         self.running: dict[Future, _Running] = {}
         self.t0 = time.monotonic()
-        context = multiprocessing.get_context("spawn")  # no inherited torch threads or locks
-        self.queue = context.Queue()
-        self.pool = ProcessPoolExecutor(
-            max_workers=workers,
-            mp_context=context,
-            initializer=_init_worker,
-            initargs=(self.queue, threads),
-            max_tasks_per_child=1,
+        self.context = multiprocessing.get_context("spawn")  # no inherited torch threads or locks
+        self.queue = self.context.Queue()
+
+    def submit(self, job: Job) -> None:
+        pool = ProcessPoolExecutor(
+            max_workers=1, mp_context=self.context, initializer=_init_worker, initargs=(self.queue, self.threads)
         )
+        self.running[pool.submit(_run_job, job.name, job.run)] = _Running(job, time.monotonic(), pool)
 
     def say(self, text: str) -> None:
         print(f"{elapsed_stamp(time.monotonic() - self.t0)} {text}", file=self.out, flush=True)
@@ -217,10 +223,11 @@ class _Scheduler:
         except KeyboardInterrupt:
             for state in self.running.values():
                 self.results[state.job.name].status = "interrupted"
-            self.pool.shutdown(wait=False, cancel_futures=True)
             raise
         finally:
-            self.pool.shutdown(wait=True, cancel_futures=True)
+            # the workers had the same SIGINT (one process group): each job stops, its pool joins its one worker
+            for state in self.running.values():
+                state.pool.shutdown(wait=True, cancel_futures=True)
 
     def start_ready(self, pending: list[Job]) -> None:
         for job in list(pending):
@@ -232,11 +239,12 @@ class _Scheduler:
                 self.say(f"{job.name}: skipped (it needs {', '.join(failed_inputs)}, which failed)")
             elif len(self.running) < self.workers and all(d in self.done for d in job.after):
                 pending.remove(job)
-                self.running[self.pool.submit(_run_job, job.name, job.run)] = _Running(job, time.monotonic())
+                self.submit(job)
                 self.say(f"{job.name}: started (expected {format_minutes(job.estimate_s)})")
 
     def collect(self, future: Future) -> None:
         state = self.running.pop(future)
+        state.pool.shutdown(wait=True)  # its worker has nothing left to run: it exits at once
         result = self.results[state.job.name]
         result.seconds = time.monotonic() - state.started
         try:
