@@ -57,7 +57,8 @@ def test_with_replicates_in_the_table_the_training_variance_is_t_over_the_seeds(
     assert "trained and scored here" in arms.source
 
 
-def test_with_seed_0_alone_the_study_supplies_the_spread():
+def test_with_seed_0_alone_the_study_supplies_the_other_runs(monkeypatch):
+    monkeypatch.setenv("MOTIONLAB_PRECISION", "fp32")  # this build repeats the study's fp32 seed 0, on any CPU
     fid = {("dynamic", 0): [10.0, 11.0, 12.0], ("uniform", 0): [12.0, 12.5, 13.0]}
     study = {
         "transitions/fid_dynamic": {Run("fp32", 0): 11.0, Run("fp32", 1): 13.0, Run("fp32", 2): 9.5},
@@ -67,17 +68,20 @@ def test_with_seed_0_alone_the_study_supplies_the_spread():
     arms = compare_arms(_table((0,), fid), (0,), spread)
     assert arms.fid["uniform"] == mean_ci([12.0, 12.5, 13.0])  # the model's repeats, not a mean over seeds
     same = mean_ci([-2.0, -1.5, -1.0])
-    d = np.array([11.0 - 12.5, 13.0 - 11.5, 9.5 - 10.0])
-    spread_half = stdtrit(2, 0.975) * d.std(ddof=1)
+    # seed 0 here takes the study's seed 0's place: its paired difference and the study's seeds 1 and 2
+    d = np.array([same.mean, 13.0 - 11.5, 9.5 - 10.0])
     assert arms.same_seed == same
-    assert arms.training.mean == pytest.approx(same.mean)  # seed 0's difference ...
-    assert arms.training.half_width == pytest.approx(math.hypot(same.half_width, spread_half))  # ... widened
+    assert arms.training.mean == pytest.approx(d.mean()) and arms.training.n == 3
+    half = math.hypot(stdtrit(2, 0.975) * d.std(ddof=1), same.half_width) / math.sqrt(3)
+    assert arms.training.half_width == pytest.approx(half)  # the mean's interval, seed 0's own over √n
     assert (arms.gap_label, arms.gap_source) == ("seed 1 − seed 0", "the training-seed study's numbers")
     assert arms.seed_gaps == {"uniform": Estimate(11.5 - 12.5), "dynamic": Estimate(13.0 - 11.0)}
-    assert "study" in arms.source and "seed 2 (fp32)" in arms.source
+    assert "mean over 3 training runs" in arms.source and "seed 2 (fp32)" in arms.source
+    assert "seed 0 (fp32)" not in arms.source
 
 
-def test_without_replicates_or_study_there_is_no_training_variance():
+def test_without_replicates_or_study_there_is_no_training_variance(monkeypatch):
+    monkeypatch.setenv("MOTIONLAB_PRECISION", "fp32")
     fid = {("dynamic", 0): [10.0, 11.0, 12.0], ("uniform", 0): [12.0, 12.5, 13.0]}
     too_few = TrainingSpread(
         "laptop",
@@ -96,7 +100,8 @@ def test_seeds_must_start_with_0_and_be_distinct(seeds):
         compare_arms(_table((0,), {("dynamic", 0): [1.0], ("uniform", 0): [1.0]}), seeds)
 
 
-def test_a_seed_gap_across_two_precisions_names_both_runs():
+def test_a_seed_gap_across_two_precisions_names_both_runs(monkeypatch):
+    monkeypatch.setenv("MOTIONLAB_PRECISION", "fp32")
     fid = {("dynamic", 0): [10.0, 11.0, 12.0], ("uniform", 0): [12.0, 12.5, 13.0]}
     runs = (Run("bf16", 0), Run("fp32", 0), Run("fp32", 1))
     study = {

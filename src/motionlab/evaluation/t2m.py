@@ -317,9 +317,10 @@ class ArmsComparison:
     one seed, that model's (its repeats' interval). ``same_seed``: dynamic − uniform FID at training seed 0, paired per
     repeat (the evaluation's noise only). ``seed_gaps``: per arm, FID of one training seed − another, the pair named by
     ``gap_label`` (``"seed 1 − seed 0"``), measured as ``gap_source`` says (paired per repeat when the table has both;
-    the study's numbers, without an interval, otherwise). ``training``: dynamic − uniform FID with the training runs'
-    variance (t over the table's seeds, or seed 0's paired difference with the study's spread joined in quadrature,
-    the claims table's rule); None where neither was measured. ``source`` says where the training variance comes from.
+    the study's numbers, without an interval, otherwise). ``training``: dynamic − uniform FID over training runs (the
+    mean over the table's seeds with t over them, or, the claims table's rule, seed 0's paired difference averaged
+    with the study's other runs, :meth:`~motionlab.report.spread.RunDifferences.pooled`); None where neither was
+    measured. ``source`` says which runs.
     """
 
     fid: dict[str, Estimate]
@@ -356,13 +357,15 @@ def compare_arms(table: EvaluationTable, seeds: tuple[int, ...] = (0,), spread: 
             training=mean_ci(
                 [d - u for d, u in zip(per_seed["fid"]["dynamic"], per_seed["fid"]["uniform"], strict=True)]
             ),
-            source=f"{len(seeds)} training seeds per arm, trained and scored here",
+            source=f"the mean over {len(seeds)} training seeds per arm, trained and scored here",
         )
     fid = {a: table.estimate(seed_replica(a, 0), "fid") for a in ARMS}
     top3 = {a: table.estimate(seed_replica(a, 0), "top3") for a in ARMS}
     keys = ("transitions/fid_dynamic", "transitions/fid_uniform")
-    spread_d = spread.difference(*keys) if spread is not None else None
-    if spread_d is None:
+    from motionlab.report.spread import this_build
+
+    others = spread.other_runs(*keys, this_build()) if spread is not None else None
+    if others is None:
         return ArmsComparison(
             fid, top3, same_seed, {}, "", "", None, "training seed 0 only: no training-seed study on this data"
         )
@@ -371,9 +374,11 @@ def compare_arms(table: EvaluationTable, seeds: tuple[int, ...] = (0,), spread: 
         a: Estimate(spread.values[f"transitions/fid_{a}"][study[1]] - spread.values[f"transitions/fid_{a}"][study[0]])
         for a in ARMS
     }
-    # another training run moves seed 0's difference by a zero-centred amount of the study's spread: in quadrature
-    training = same_seed.minus(Estimate(0.0, spread_d.half_width, spread_d.n))
-    source = f"the training-seed study's {len(study)} runs per arm ({', '.join(map(str, study))})"
+    # the claims table's rule: seed 0's paired difference averaged with the study's other runs of the two arms
+    training = others.pooled(same_seed)
+    source = (
+        f"the mean over {training.n} training runs: this build's and the study's {', '.join(map(str, others.runs))}"
+    )
     # two runs in different precisions differ in more than the seed: the label then names both
     same = study[0].precision == study[1].precision
     label = f"seed {study[1].seed} − seed {study[0].seed}" if same else f"{study[1]} − {study[0]}"

@@ -7,11 +7,14 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from motionlab.estimate import Estimate
+
+if TYPE_CHECKING:
+    from motionlab.report.spread import RunDifferences
 
 TASKS = ("reconstruction", "t2m", "multi")
 SPLITS = ("train", "val", "test")
@@ -164,10 +167,11 @@ class EvaluationTable:
         name_a: str | None = None,
         name_b: str | None = None,
         *,
-        training: Estimate | None = None,
+        training: RunDifferences | None = None,
     ):
         """``row_a`` against ``row_b`` on ``metric`` by the one rule (:func:`motionlab.report.compare`); ``training``:
-        how far retraining moves the difference, where measured (:meth:`motionlab.report.TrainingSpread.difference`)."""
+        the difference on the other recorded training runs, where measured
+        (:meth:`motionlab.report.TrainingSpread.other_runs`): the verdict is then their mean with this table's."""
         from motionlab.report import compare
 
         quantity = metric_label(metric).rstrip(" ↓↑→")

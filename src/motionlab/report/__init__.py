@@ -8,11 +8,22 @@ One rule judges every comparison in the library and the book, :meth:`~motionlab.
     # sJPE: DisCoRD 1.38 ± 0.02 is lower than feed-forward 1.45 ± 0.03
 
 The claims table (:mod:`motionlab.results`) judges its orderings with the same :class:`Comparison`, so a chapter's
-sentence and the verdict box at the top of its page cannot disagree. Where the training-seed study measured how far
-retraining moves a difference (:func:`load_spread`), that spread joins the interval: ``compare(..., training=...)``.
+sentence and the verdict box at the top of its page cannot disagree. Where the training-seed study measured a
+difference on other training runs (:func:`load_spread`), the verdict is the mean over those runs and this build's:
+``compare(..., training=spread.other_runs(a, b, this_build()))``.
 """
 
 from .phrases import Comparison, Sentence, compare, difference, trend
-from .spread import TrainingSpread, load_spread
+from .spread import RunDifferences, TrainingSpread, load_spread, this_build
 
-__all__ = ["Comparison", "Sentence", "TrainingSpread", "compare", "difference", "load_spread", "trend"]
+__all__ = [
+    "Comparison",
+    "RunDifferences",
+    "Sentence",
+    "TrainingSpread",
+    "compare",
+    "difference",
+    "load_spread",
+    "this_build",
+    "trend",
+]

@@ -265,8 +265,8 @@ CLAIMS: tuple[Claim, ...] = (
                 ),
             ),
             Evidence(
-                "FID dynamic − uniform with the training variance (t over the training seeds, or training seed 0 "
-                "with the training-seed study's spread)",
+                "FID dynamic − uniform over training runs (t over the training seeds, or training seed 0 averaged "
+                "with the training-seed study's other runs)",
                 ("transitions/fid_dynamic_minus_uniform",),
             ),
             Evidence(

@@ -8,6 +8,8 @@ from dataclasses import dataclass
 
 from motionlab.estimate import Estimate, format_estimate
 
+from .spread import RunDifferences
+
 LOWER, HIGHER, SAME = "lower", "higher", "not distinguishable"
 HOLDS, FAILS, INCONCLUSIVE = "holds", "does not hold", "inconclusive"  # the claims table's verdicts
 
@@ -34,12 +36,14 @@ class Comparison:
     ``verdict`` is ``"lower"``, ``"higher"`` or ``"not distinguishable"``; :meth:`say` turns it into a sentence and
     appends the caller's reading of each outcome.
 
-    ``training``, where measured, is how far ``a − b`` moves between training runs of the models behind the two
-    numbers (:meth:`motionlab.report.spread.TrainingSpread.difference`): its half-width joins the interval of the
-    difference, so a gap that retraining alone produces is not read as an effect. ``test_set``, where measured, is
-    ``a − b`` paired over the test clips both were measured on (:func:`motionlab.estimate.paired_bootstrap`): how far
-    drawing another test set moves the difference, which a deterministic measurement's own interval lacks. It joins
-    likewise.
+    ``training``, where measured, is ``a − b`` on the recorded training runs of the models behind the two numbers,
+    other than the run these numbers come from (:meth:`motionlab.report.spread.TrainingSpread.other_runs`). Then the
+    verdict is the mean difference over those runs and this one, with its interval
+    (:meth:`~motionlab.report.spread.RunDifferences.pooled`): what a model trained this way does, which every
+    machine reads alike, not what one training run did. ``test_set``, where measured, is ``a − b`` paired over the
+    test clips both were measured on (:func:`motionlab.estimate.paired_bootstrap`): how far drawing another test set
+    moves the difference, which a deterministic measurement's own interval lacks (and every training run shares). Its
+    half-width joins the interval in quadrature.
     """
 
     a: Estimate
@@ -47,32 +51,41 @@ class Comparison:
     names: tuple[str, str] = ("a", "b")
     quantity: str = ""
     against_zero: bool = False  # a measured difference (a) against 0 (b): see difference()
-    training: Estimate | None = None  # a − b between training runs: the spread one run's difference carries
+    training: RunDifferences | None = None  # a − b on the other recorded training runs: the verdict pools them
     test_set: Estimate | None = None  # a − b paired over the test clips: the spread of drawing the test set
 
     @property
+    def pooled(self) -> Estimate | None:
+        """``a − b`` averaged over the training runs (the recorded ones and this), where ``training`` is given."""
+        if self.training is None:
+            return None
+        here = Estimate(self.a.mean - self.b.mean, math.hypot(self.a.half_width, self.b.half_width), 1, self.a.unit)
+        return self.training.pooled(here)
+
+    @property
+    def judged(self) -> Estimate:
+        """The difference the verdict reads: this run's ``a − b`` (or the mean over training runs, where pooled), its
+        95% half-width joined in quadrature with the test-clip interval."""
+        pooled = self.pooled
+        d = pooled if pooled is not None else self.a.minus(self.b)
+        test_set = 0.0 if self.test_set is None else self.test_set.half_width
+        return Estimate(d.mean, math.hypot(d.half_width, test_set), d.n, self.a.unit)
+
+    @property
     def has_interval(self) -> bool:
-        return self.a.half_width > 0 or self.b.half_width > 0 or self._training_half > 0 or self._test_set_half > 0
-
-    @property
-    def _training_half(self) -> float:
-        return 0.0 if self.training is None else self.training.half_width
-
-    @property
-    def _test_set_half(self) -> float:
-        return 0.0 if self.test_set is None else self.test_set.half_width
+        return self.judged.half_width > 0 or self.training is not None
 
     @property
     def apart(self) -> bool:
-        """The one rule: the 95% interval of the difference excludes 0 (with the training runs' spread in it)."""
-        extra = math.hypot(self.b.half_width, self._training_half, self._test_set_half)
-        b = Estimate(self.b.mean, extra, self.b.n, self.b.unit)
-        return self.a.apart_from(b)
+        """The one rule: the 95% interval of the difference excludes 0 (pooled over training runs where measured)."""
+        return self.judged.apart_from(0.0)
 
     @property
     def direction(self) -> str:
-        """How the point estimates order, whatever the noise: ``"lower"``, ``"higher"`` or ``"equal"``."""
-        return LOWER if self.a.mean < self.b.mean else HIGHER if self.a.mean > self.b.mean else "equal"
+        """How the difference orders ``a`` and ``b``, whatever the noise: ``"lower"``, ``"higher"`` or ``"equal"`` (the
+        point estimates', or, pooled over training runs, the mean difference's)."""
+        d = self.judged.mean
+        return LOWER if d < 0 else HIGHER if d > 0 else "equal"
 
     @property
     def verdict(self) -> str:
@@ -92,18 +105,25 @@ class Comparison:
         if self.against_zero:
             where = {LOWER: "below 0", HIGHER: "above 0", SAME: "not distinguishable from 0 at 95%"}[self.verdict]
             return f"{prefix}{name_a} = {self.a}, {where}"
-        retrained = ""  # what moves the difference besides the measurement: retraining, another draw of test clips
-        if self.training is not None:
-            spread = format_estimate(self._training_half, unit=self.a.unit, significant=2)
-            retrained = f"retraining moves the difference by ± {spread} over {self.training.n} training runs"
+        clips = ""  # the test-clip interval, where measured: another draw of the test set
         if self.test_set is not None:
-            spread = format_estimate(self._test_set_half, unit=self.a.unit, significant=2)
-            verb = ", another draw of test clips" if retrained else "another draw of test clips moves the difference"
-            retrained += f"{verb} by ± {spread}: a paired bootstrap over {self.test_set.n} clips"
-        retrained = f" ({retrained})" if retrained else ""
+            spread = format_estimate(self.test_set.half_width, unit=self.a.unit, significant=2)
+            clips = f"another draw of test clips moves the difference by ± {spread}"
+            clips += f": a paired bootstrap over {self.test_set.n} clips"
+        pooled = self.pooled
+        if pooled is not None:
+            mean = self.judged
+            runs = f"{pooled.n} training runs (this one and {pooled.n - 1} recorded)"
+            word = "not distinguishable from 0 at 95%" if self.verdict == SAME else f"{name_a} is {self.verdict}"
+            extra = f"; {clips}" if clips else ""
+            return (
+                f"{prefix}{name_a} {self.a}, {name_b} {self.b}; over {runs}, {name_a} − {name_b} = {mean}: "
+                f"{word}{extra}"
+            )
+        clips = f" ({clips})" if clips else ""
         if self.verdict == SAME:
-            return f"{prefix}{name_a} {self.a} and {name_b} {self.b} are not distinguishable at 95%{retrained}"
-        return f"{prefix}{name_a} {self.a} is {self.verdict} than {name_b} {self.b}{retrained}"
+            return f"{prefix}{name_a} {self.a} and {name_b} {self.b} are not distinguishable at 95%{clips}"
+        return f"{prefix}{name_a} {self.a} is {self.verdict} than {name_b} {self.b}{clips}"
 
     def say(self, lower: str = "", higher: str = "", same: str = "") -> Sentence:
         """The comparison as a sentence, followed by the caller's reading of the outcome that happened
@@ -122,15 +142,16 @@ def compare(
     name_b: str = "b",
     *,
     quantity: str = "",
-    training: Estimate | None = None,
+    training: RunDifferences | None = None,
     test_set: Estimate | None = None,
 ) -> Comparison:
     """Compare two independent estimates (or plain numbers, which carry no interval) by the one rule; ``training``:
-    the spread of ``a − b`` between training runs, ``test_set``: ``a − b`` paired over the test clips, each where it
-    was measured (see :class:`Comparison`)."""
-    for name, value in (("training", training), ("test_set", test_set)):
-        if value is not None and not isinstance(value, Estimate):
-            raise TypeError(f"{name} must be an Estimate of a − b, got {type(value).__name__}")
+    ``a − b`` on the other recorded training runs (the verdict pools them with this one), ``test_set``: ``a − b``
+    paired over the test clips, each where it was measured (see :class:`Comparison`)."""
+    if training is not None and not isinstance(training, RunDifferences):
+        raise TypeError(f"training must be RunDifferences (TrainingSpread.other_runs), got {type(training).__name__}")
+    if test_set is not None and not isinstance(test_set, Estimate):
+        raise TypeError(f"test_set must be an Estimate of a − b, got {type(test_set).__name__}")
     return Comparison(
         _estimate(a, "a"), _estimate(b, "b"), (name_a, name_b), quantity, training=training, test_set=test_set
     )

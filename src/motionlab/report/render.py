@@ -14,7 +14,7 @@ from motionlab.viz.tables import Table
 from .budget import BudgetStudy, load_budget, scale_statement
 from .claims import CLAIMS, FINDINGS
 from .quantities import quantity
-from .rules import Claim, training_difference
+from .rules import Claim, Within, training_difference
 from .spread import TrainingSpread, load_spread
 from .store import CHAPTERS, FAILS, HOLDS, INCONCLUSIVE, MISSING, VERDICTS, Result, load_all
 
@@ -162,25 +162,32 @@ def _study(value, kind: type, load, profile: str, name: str):
 
 
 def retraining_phrase(rule, recorded: Mapping[str, Result], spread: TrainingSpread | None) -> str:
-    """How far retraining, and drawing another test set, move each difference the rule judges (``""`` where neither
-    was measured)."""
+    """What the verdict reads besides this build's numbers (``""`` where nothing else was measured): each difference
+    the rule judges averaged over the training runs, and how far another draw of test clips moves it."""
+    from motionlab.report import compare
+
     parts = []
     for a, b in getattr(rule, "pairs", ()):
-        if a in recorded and b in recorded and (d := training_difference(recorded[a], recorded[b], spread)):
-            unit = recorded[a].unit
-            parts.append(f"± {format_estimate(d.half_width, unit=unit, significant=2)} over {d.n} training runs")
-    text = f"; retraining moves the difference by {', '.join(parts)}" if parts else ""
+        if a in recorded and b in recorded and (others := training_difference(recorded[a], recorded[b], spread)):
+            pooled = compare(recorded[a].estimate, recorded[b].estimate, training=others).pooled
+            runs = f"{pooled.n} training runs (this build and {pooled.n - 1} recorded)"
+            parts.append(f"{format_estimate(pooled.mean, pooled.half_width, pooled.unit)} over {runs}")
+    text = f"; the difference averages {', '.join(parts)}" if parts else ""
+    if isinstance(rule, Within) and all(k in recorded for k in rule.keys) and (means := rule.pooled(recorded, spread)):
+        a, b, n = means
+        values = ", ".join(format_estimate(x, unit=recorded[rule.a].unit) for x in (a, b))
+        text += f"; averaged over {n} training runs (this build and {n - 1} recorded): {values}, {Within.apart(a, b)}"
     clips = rule.test_set(recorded) if hasattr(rule, "test_set") else None
     if clips is not None:
         half = format_estimate(clips.estimate.half_width, unit=clips.unit, significant=2)
-        verb = "another draw of test clips" if parts else "another draw of test clips moves the difference"
-        text += f"; {verb} by ± {half} (a paired bootstrap over the clips)"
+        text += f"; another draw of test clips moves the difference by ± {half} (a paired bootstrap over the clips)"
     return text
 
 
 def spread_table(spread: TrainingSpread, claims: Sequence[Claim] = CLAIMS) -> Table:
-    """Every comparison of ``claims`` the training-seed study measured: ``a − b`` on each seed, and the spread of one
-    training run's difference that joins the verdict's interval (a :class:`~motionlab.viz.tables.Table`)."""
+    """Every comparison of ``claims`` the training-seed study measured: ``a − b`` on each run, the spread of one
+    training run's difference, and the mean over the runs with its interval (``t · sd / √k``: the verdict reads this
+    mean once this build joins it) as a :class:`~motionlab.viz.tables.Table`."""
     rows: dict[str, dict] = {}
     for claim in claims:
         for a, b in getattr(claim.rule, "pairs", ()):
@@ -197,8 +204,10 @@ def spread_table(spread: TrainingSpread, claims: Sequence[Claim] = CLAIMS) -> Ta
             per_run = "; ".join(f"{p}: {', '.join(v)}" for p, v in by_precision.items())
             (name, condition_a), (_, condition_b) = quantity(a), quantity(b)
             label = f"{claim.statement} ({name}: {condition_a} − {condition_b})"
+            mean = format_number(difference.mean, decimals)
             rows[label] = {"training runs": len(runs), "a − b on each run": per_run}
             rows[label]["± one run (t · sd)"] = format_number(half, decimals)
+            rows[label]["mean ± its 95% interval"] = f"{mean} ± {format_number(half / math.sqrt(len(runs)), decimals)}"
     if not rows:
         raise ValueError("the training-seed study measured none of these claims' comparisons")
     return Table("claim (a − b)", rows, notes=(f"measured on {spread.data}: " + "; ".join(spread.measured),))
@@ -206,9 +215,10 @@ def spread_table(spread: TrainingSpread, claims: Sequence[Claim] = CLAIMS) -> Ta
 
 def verdicts_by_run(spread: TrainingSpread, recorded: Mapping[str, Result], claims: Sequence[Claim] = CLAIMS) -> Table:
     """Would a build on another machine read the same verdicts? Each claim whose numbers the training-run study
-    measured, judged as a build whose models were each recorded run (a seed, in bf16 on one CPU or fp32 on another)
-    would judge it: the run's numbers in place of the chapter's, each keeping the chapter's measurement interval, and
-    the same pooled spread. A row whose verdicts differ between runs is one that another machine can flip.
+    measured, judged as if this build's models had landed where each recorded run landed (a seed, in bf16 on one CPU
+    or fp32 on another): that run's numbers in place of the chapter's, each keeping the chapter's measurement
+    interval, averaged with the other recorded runs by the claims table's rule. A row whose verdicts differ between
+    runs is one that another machine can flip.
     """
     rows: dict[str, dict] = {}
     for claim in claims:

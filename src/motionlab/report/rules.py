@@ -5,10 +5,10 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
-from motionlab.estimate import Estimate, format_estimate
+from motionlab.estimate import format_estimate
 
 from .quantities import quantity
-from .spread import TrainingSpread
+from .spread import Run, RunDifferences, TrainingSpread, this_build
 from .store import CHAPTERS, FAILS, HOLDS, INCONCLUSIVE, Result
 
 
@@ -55,12 +55,23 @@ def describe_values(
 # Rules: how one claim is judged from recorded results
 
 
-def training_difference(a: Result, b: Result, spread: TrainingSpread | None) -> Estimate | None:
-    """How far ``a − b`` moves between training runs, where the training-seed study measured both keys on the data
-    the two results were measured on (else None: the verdict rests on the measurement's interval alone)."""
-    if spread is None or not (spread.applies_to(a.note) and spread.applies_to(b.note)):
-        return None
-    return spread.difference(a.name, b.name)
+def _studied(a: Result, b: Result, spread: TrainingSpread | None) -> bool:
+    """Whether the training-seed study measured ``a`` and ``b`` as this build did: at least one on the study's data
+    (its note names it), the other too, or a number no training run moves (ground truth, the same on every run)."""
+    if spread is None or not (spread.applies_to(a.note) or spread.applies_to(b.note)):
+        return False
+    return all(spread.applies_to(r.note) or spread.run_independent(r.name, r.value) for r in (a, b))
+
+
+def _build(a: Result) -> Run | None:
+    """The recorded run this build repeats: seed 0 in the precision its results were recorded in (None: unknown)."""
+    return this_build(a.precision) if a.precision else None
+
+
+def training_difference(a: Result, b: Result, spread: TrainingSpread | None) -> RunDifferences | None:
+    """``a − b`` on the recorded training runs other than the one this build repeats, where the training-seed study
+    measured both as this build did; else None: the verdict rests on this build's measurement alone."""
+    return spread.other_runs(a.name, b.name, _build(a)) if _studied(a, b, spread) else None
 
 
 def _compare(
@@ -68,9 +79,9 @@ def _compare(
 ) -> str:
     """Verdict of the expectation that ``a`` is ``"lower"`` (or ``"higher"``) than ``b``, by the one rule
     (:meth:`motionlab.report.Comparison.judge`): "inconclusive" when a side carries an interval and the 95% interval
-    of the difference, half-width ``sqrt(h_a² + h_b²)`` for independent estimates (``+ h_t²``, the spread between
-    training runs, where ``spread`` measured it: :mod:`motionlab.report.spread`; ``+ h_c²``, ``a − b`` paired over the
-    test clips, where ``test_set`` records it), contains 0.
+    of the difference, half-width ``sqrt(h_a² + h_b²)`` for independent estimates (``+ h_c²``, ``a − b`` paired over
+    the test clips, where ``test_set`` records it), contains 0. Where ``spread`` measured the two keys, the difference
+    is the mean over the training runs, the recorded ones and this build's (:mod:`motionlab.report.spread`).
 
     Not "when their intervals overlap": two 95% intervals can overlap while the difference is clear (for equal
     widths the overlap test works at about the 99.5% level, not 95%). Where both were measured on the same samples,
@@ -199,8 +210,21 @@ class Within:
 
     pairs = ()  # a relative tolerance on point values: no interval to widen
 
+    def pooled(self, r: Mapping[str, Result], spread: TrainingSpread | None) -> tuple[float, float, int] | None:
+        """``(a, b, n)``: each averaged over the ``n`` training runs (the recorded ones and this build, in the place
+        of the run it repeats), where the training-seed study measured both; else None."""
+        a, b = r[self.a], r[self.b]
+        if not _studied(a, b, spread):
+            return None
+        means = [spread.mean_with(x.name, x.value, _build(a)) for x in (a, b)]
+        if None in means:
+            return None
+        (mean_a, n), (mean_b, _) = means
+        return mean_a, mean_b, n
+
     def judge(self, r: Mapping[str, Result], spread: TrainingSpread | None = None) -> str:
-        a, b = r[self.a].value, r[self.b].value
+        pooled = self.pooled(r, spread)
+        a, b = (r[self.a].value, r[self.b].value) if pooled is None else pooled[:2]
         return HOLDS if abs(a - b) <= self.rel_tol * abs(b) else FAILS
 
     def describe(self) -> str:
@@ -209,11 +233,14 @@ class Within:
     def sentence(self, r: Mapping[str, Result]) -> str:
         text = describe_values(self.keys, r, compare=False)
         if self.a in r and self.b in r and r[self.b].value:
-            a, b = r[self.a].value, r[self.b].value
-            gap = abs(a - b) / abs(b)
-            apart = f"{gap:.0%} apart" if gap <= 1 or not a else f"{max(abs(a / b), abs(b / a)):.3g} times apart"
-            text += f": {apart} (the claim allows {self.rel_tol:.0%})"
+            text += f": {self.apart(r[self.a].value, r[self.b].value)} (the claim allows {self.rel_tol:.0%})"
         return text
+
+    @staticmethod
+    def apart(a: float, b: float) -> str:
+        """How far apart ``a`` is from the reference ``b``: ``"9% apart"``, or ``"104 times apart"``."""
+        gap = abs(a - b) / abs(b)
+        return f"{gap:.0%} apart" if gap <= 1 or not a else f"{max(abs(a / b), abs(b / a)):.3g} times apart"
 
 
 @dataclass(frozen=True)

@@ -1,17 +1,18 @@
-"""How far retraining moves a claim's numbers: the between-training-run spread the claims table adds to its intervals.
+"""How far retraining moves a claim's numbers, and the verdict every machine shares.
 
 A chapter's number comes from one trained model. Its interval (sampling seeds, test clips) says how well that model
 was measured, not how far another training run — another seed, another CPU, another precision — would land. A
-verdict judged on it alone can flip between two machines. The training-seed study (``experiments/training_seeds.py``)
+verdict judged on one run can flip between two machines. The training-seed study (``experiments/training_seeds.py``)
 trains the same models again with other seeds, on machines of more than one precision, and records every claim number
 per run under ``book/data/training_seeds/embedded-v<N>/``; :class:`TrainingSpread` reads those files.
 
-The rule (stated on chapter 99): for a comparison of ``a`` with ``b`` whose numbers were measured on ``k >= 3``
-training runs (seeds, in each precision recorded), the per-run differences ``d_s = a_s − b_s`` give the spread of
-one training run's difference, ``t_{0.975, k−1} · sd(d)``; the verdict's 95% interval of ``a − b`` adds it in
-quadrature to the measurement's (:class:`motionlab.report.Comparison`'s ``training``). A difference that retraining
-alone can produce reads "inconclusive"; :func:`motionlab.report.render.verdicts_by_run` checks how far that makes the
-verdicts agree between machines.
+The rule (stated on chapter 99): a comparison of ``a`` with ``b`` whose numbers the study measured is judged on the
+mean of ``d = a − b`` over the training runs: the recorded runs and this build, which takes the place of the recorded
+run it repeats (seed 0 in its precision). Its 95% interval is ``t_{0.975, n−1} · sd(d) / √n``, joined in quadrature
+with this build's measurement interval over ``√n`` (every run is measured alike) and, where recorded, the test-clip
+interval (every run shares the test clips). A build that lands anywhere the recorded runs landed moves the mean by
+``1/n`` of its own shift, so machines read the same verdict (:func:`motionlab.report.render.verdicts_by_run` checks
+it); the verdict is about a model trained at this scale, not about one training run.
 """
 
 from __future__ import annotations
@@ -40,6 +41,48 @@ class Run(NamedTuple):
         return f"seed {self.seed} ({self.precision})"
 
 
+def this_build(precision: str | None = None) -> Run:
+    """The run this build's models are: seed 0 (the book's) in ``precision`` (default: the precision this process
+    trains in, :func:`motionlab.precision.network_precision`)."""
+    if precision is None:
+        from motionlab.precision import network_precision  # imports torch: only when asked
+
+        precision = network_precision()
+    return Run(precision, 0)
+
+
+def _t(n: int) -> float:
+    """The two-sided 95% quantile of Student's t with ``n − 1`` degrees of freedom."""
+    from scipy.special import stdtrit
+
+    return float(stdtrit(n - 1, 0.975))
+
+
+def _sd(values: Sequence[float]) -> float:
+    mean = sum(values) / len(values)
+    return math.sqrt(sum((x - mean) ** 2 for x in values) / (len(values) - 1))
+
+
+@dataclass(frozen=True)
+class RunDifferences:
+    """``a − b`` on the recorded training runs other than this build's own (``runs[i]`` gave ``values[i]``)."""
+
+    runs: tuple[Run, ...]
+    values: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        if len(self.runs) != len(self.values) or len(self.values) < MIN_SEEDS - 1:
+            raise ValueError(f"need {MIN_SEEDS - 1} or more recorded runs, one value each, got {self.values}")
+
+    def pooled(self, here: Estimate) -> Estimate:
+        """The mean of ``a − b`` over these runs and this build's (``here``, with its measurement interval), with
+        its 95% half-width ``hypot(t · sd / √n, h_here / √n)`` over the ``n`` runs."""
+        d = (*self.values, here.mean)
+        n = len(d)
+        half = math.hypot(_t(n) * _sd(d), here.half_width) / math.sqrt(n)
+        return Estimate(sum(d) / n, half, n, here.unit)
+
+
 @dataclass(frozen=True)
 class TrainingSpread:
     """Claim numbers measured on several training runs of the same models: ``values[key][run]``
@@ -63,15 +106,33 @@ class TrainingSpread:
         """``a − b`` across the training runs both were measured on: the mean difference, and as the half-width
         ``t_{0.975, k−1} · sd`` the spread of *one* training run's difference around it (None below ``MIN_SEEDS``).
         Runs in two precisions pool: a shift between them counts as spread, as a reader's machine is another run."""
-        from scipy.special import stdtrit
-
         runs = self.runs(a, b)
         if len(runs) < MIN_SEEDS:
             return None
         d = [self.values[a][r] - self.values[b][r] for r in runs]
-        mean = sum(d) / len(d)
-        sd = math.sqrt(sum((x - mean) ** 2 for x in d) / (len(d) - 1))
-        return Estimate(mean, float(stdtrit(len(d) - 1, 0.975)) * sd, len(d))
+        return Estimate(sum(d) / len(d), _t(len(d)) * _sd(d), len(d))
+
+    def other_runs(self, a: str, b: str, build: Run | None) -> RunDifferences | None:
+        """``a − b`` on the recorded runs, leaving out ``build`` (the run this build repeats; None: a build that
+        repeats none of them), for :meth:`RunDifferences.pooled` (None where fewer than ``MIN_SEEDS − 1`` remain)."""
+        runs = [r for r in self.runs(a, b) if r != build]
+        if len(runs) < MIN_SEEDS - 1:
+            return None
+        return RunDifferences(tuple(runs), tuple(self.values[a][r] - self.values[b][r] for r in runs))
+
+    def mean_with(self, key: str, here: float, build: Run | None) -> tuple[float, int] | None:
+        """``key`` averaged over the recorded runs other than ``build`` and this build's ``here``: ``(mean, n)``
+        (None where fewer than ``MIN_SEEDS − 1`` other runs measured it). For rules without an interval."""
+        others = [v for r, v in self.values.get(key, {}).items() if r != build]
+        if len(others) < MIN_SEEDS - 1:
+            return None
+        return (sum(others) + here) / (len(others) + 1), len(others) + 1
+
+    def run_independent(self, key: str, value: float) -> bool:
+        """Whether ``key`` is a number no training run moves, and ``value`` is it: the same on every recorded run
+        (ground truth on the study's data, whose note names no model's data)."""
+        values = list(self.values.get(key, {}).values())
+        return len(values) >= MIN_SEEDS and all(math.isclose(v, value, rel_tol=1e-6, abs_tol=1e-12) for v in values)
 
     def applies_to(self, note: str | None) -> bool:
         """Whether a recorded result (by its note, which names the data as ``data <key>``) is on this spread's data."""

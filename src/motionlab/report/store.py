@@ -94,6 +94,7 @@ class Result:
     note: str | None = None
     profile: str = "laptop"
     recorded_at: str = ""
+    precision: str | None = None  # the precision the chapter's models ran in (None: not recorded)
 
     @property
     def name(self) -> str:
@@ -196,9 +197,8 @@ def record(
         if text is not None and not isinstance(text, str):
             raise ValueError(f"{arg} must be a string or None, got {type(text).__name__}")
     profile = get_profile(profile)
-    result = Result(
-        chapter, key, number, interval, unit, note, profile, datetime.now(timezone.utc).isoformat(timespec="seconds")
-    )
+    recorded_at = datetime.now(timezone.utc).isoformat(timespec="seconds")
+    result = Result(chapter, key, number, interval, unit, note, profile, recorded_at, network_precision())
 
     path = results_dir(profile) / f"{chapter}.json"
     entries = _read(path)
@@ -208,7 +208,7 @@ def record(
         "unit": unit,
         "note": note,
         "recorded_at": result.recorded_at,
-        "precision": network_precision(),
+        "precision": result.precision,
     }
     _write_atomic(path, {"chapter": chapter, "profile": profile, "results": entries})
     return result
@@ -249,5 +249,6 @@ def load_all(profile: str | None = None) -> dict[str, Result]:
                 entry.get("note"),
                 profile,
                 entry.get("recorded_at", ""),
+                entry.get("precision"),
             )
     return out
