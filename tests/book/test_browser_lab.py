@@ -191,10 +191,14 @@ def run_all(driver, url: str) -> dict:
     driver.get(url)
     wait_for(driver, STATE_JS, lambda s: s is not None and s["kernel"] == "idle", 180, "the notebook and its kernel")
     start = time.monotonic()
-    # A run-all sent while the notebook panel is still settling can be dropped (seen once from a fresh clone: the kernel
-    # idle, no cell ever queued): send it again until some cell has started.
+    # A run-all sent while the notebook panel is still settling can be dropped (seen twice: the kernel idle, no cell
+    # ever queued, once for four tries in a row): the command acts on the notebook tracker's current widget, which
+    # follows focus, so activate the panel first, and send it again until some cell has started.
     for _ in range(4):
-        driver.execute_script("window.jupyterapp.commands.execute('notebook:run-all-cells');")
+        driver.execute_script(
+            "const app = window.jupyterapp; app.shell.activateById(app.shell.currentWidget.id);"
+            "app.commands.execute('notebook:run-all-cells');"
+        )
         deadline = time.monotonic() + 30
         while time.monotonic() < deadline:
             s = driver.execute_script(STATE_JS)
