@@ -25,6 +25,7 @@ from motionlab.report.render import (
     claims_table,
     count_sentence,
     judge,
+    repeat_check,
     spread_table,
     verdicts_by_run,
 )
@@ -89,6 +90,7 @@ __all__ = [
     "quantity",
     "record",
     "results_dir",
+    "repeat_check",
     "spread_table",
     "verdicts_by_run",
 ]

@@ -341,3 +341,22 @@ def test_a_relative_tolerance_reads_the_means_over_runs(tmp_path):
     row = {r.rule: r for r in claims_table("laptop", recorded=recorded, spread=spread, budget=None)}[rule.describe()]
     assert row.verdict == HOLDS
     assert "averaged over 4 training runs (this build and 3 recorded): 0.0460, 0.0400, 15% apart" in row.ours
+
+
+def test_the_repeat_check_measures_how_far_this_build_is_from_the_run_it_replaces(spread_folder):
+    from motionlab.report.render import repeat_check
+
+    spread = load_spread("laptop", spread_folder)
+    same = {
+        f"discord/{k}": Result("discord", k, v, note=NOTE, precision="fp32")
+        for k, v in (("sjpe_rf", 1.38), ("sjpe_ff", 1.45))  # fp32 seed 0's numbers, trained again
+    }
+    text = repeat_check(spread, same)
+    assert "takes the place of seed 0 (fp32): over 2 numbers it lies a median 0.00 (at most 0.00)" in text
+    sd = (sum((x - 1.3766667) ** 2 for x in (1.38, 1.40, 1.35)) / 2) ** 0.5  # sjpe_rf over the runs: 0.025
+    moved = same | {"discord/sjpe_rf": replace(same["discord/sjpe_rf"], value=1.38 + 4 * sd)}
+    assert "a median 2.00 (at most 4.00)" in repeat_check(spread, moved)
+    bf16 = {k: replace(r, precision="bf16") for k, r in same.items()}
+    assert repeat_check(spread, bf16).startswith("no recorded run is seed 0 (bf16): this build joins the recorded")
+    unknown = {k: replace(r, precision=None) for k, r in same.items()}
+    assert "precision is not recorded" in repeat_check(spread, unknown)

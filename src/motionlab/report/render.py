@@ -15,7 +15,7 @@ from .budget import BudgetStudy, load_budget, scale_statement
 from .claims import CLAIMS, FINDINGS
 from .quantities import quantity
 from .rules import Claim, Within, training_difference
-from .spread import TrainingSpread, load_spread
+from .spread import TrainingSpread, load_spread, this_build
 from .store import CHAPTERS, FAILS, HOLDS, INCONCLUSIVE, MISSING, VERDICTS, Result, load_all
 
 # ----------------------------------------------------------------------------------------------
@@ -248,6 +248,32 @@ def verdicts_by_run(spread: TrainingSpread, recorded: Mapping[str, Result], clai
     if not rows:
         raise ValueError("the training-run study measured none of these claims' numbers")
     return Table("claim", rows, notes=(f"measured on {spread.data}: " + "; ".join(spread.measured),))
+
+
+def repeat_check(spread: TrainingSpread, recorded: Mapping[str, Result]) -> str:
+    """How closely this build repeats the recorded run whose place it takes in the verdicts (seed 0 in its
+    precision), as a sentence: for each number the study measured on this data, the gap in run-to-run standard
+    deviations (its sd over the recorded runs). Near 0: the same models, trained again; about 1: another run (another
+    CPU of that precision); far above 1 on many numbers: the recorded study is stale (the models have changed since)."""
+    from statistics import median, stdev
+
+    on_data = [r for r in recorded.values() if r.name in spread.values and spread.applies_to(r.note)]
+    precisions = {r.precision for r in on_data}
+    if not on_data or len(precisions) != 1 or None in precisions:
+        return "this build's precision is not recorded with its numbers: it joins the recorded runs as one more"
+    build = this_build(precisions.pop())
+    gaps = []
+    for r in on_data:
+        runs = spread.values[r.name]
+        sd = stdev(runs.values()) if len(runs) > 1 else 0.0
+        if build in runs and sd > 0:
+            gaps.append(abs(r.value - runs[build]) / sd)
+    if not gaps:
+        return f"no recorded run is {build}: this build joins the recorded runs as one more"
+    return (
+        f"this build takes the place of {build}: over {len(gaps)} numbers it lies a median {median(gaps):.2f} (at "
+        f"most {max(gaps):.2f}) run-to-run standard deviations from that run (0: the same models trained again)"
+    )
 
 
 def judge(
