@@ -54,7 +54,7 @@ class JobResult:
 class _Running:
     job: Job
     started: float
-    pool: ProcessPoolExecutor | None = None  # the job's own one-worker pool (see _Scheduler)
+    pool: ProcessPoolExecutor  # the job's own one-worker pool (see _Scheduler)
     step: int = 0
     total: int = 0
     last_line: float = field(default=0.0)

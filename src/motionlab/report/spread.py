@@ -22,6 +22,7 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from statistics import stdev
 from typing import NamedTuple
 
 from motionlab.estimate import Estimate
@@ -58,11 +59,6 @@ def _t(n: int) -> float:
     return float(stdtrit(n - 1, 0.975))
 
 
-def _sd(values: Sequence[float]) -> float:
-    mean = sum(values) / len(values)
-    return math.sqrt(sum((x - mean) ** 2 for x in values) / (len(values) - 1))
-
-
 @dataclass(frozen=True)
 class RunDifferences:
     """``a − b`` on the recorded training runs other than this build's own (``runs[i]`` gave ``values[i]``)."""
@@ -79,7 +75,7 @@ class RunDifferences:
         its 95% half-width ``hypot(t · sd / √n, h_here / √n)`` over the ``n`` runs."""
         d = (*self.values, here.mean)
         n = len(d)
-        half = math.hypot(_t(n) * _sd(d), here.half_width) / math.sqrt(n)
+        half = math.hypot(_t(n) * stdev(d), here.half_width) / math.sqrt(n)
         return Estimate(sum(d) / n, half, n, here.unit)
 
 
@@ -110,7 +106,7 @@ class TrainingSpread:
         if len(runs) < MIN_SEEDS:
             return None
         d = [self.values[a][r] - self.values[b][r] for r in runs]
-        return Estimate(sum(d) / len(d), _t(len(d)) * _sd(d), len(d))
+        return Estimate(sum(d) / len(d), _t(len(d)) * stdev(d), len(d))
 
     def other_runs(self, a: str, b: str, build: Run | None) -> RunDifferences | None:
         """``a − b`` on the recorded runs, leaving out ``build`` (the run this build repeats; None: a build that
