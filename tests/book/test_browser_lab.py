@@ -118,7 +118,9 @@ def lab(tmp_path_factory):
             if proc.poll() is not None or time.monotonic() > deadline:
                 pytest.fail(f"JupyterLab did not start:\n{log.read_text()[-3000:]}")
             time.sleep(0.5)
-        yield lambda name: f"{base}/lab/tree/{name}?token={token}"
+        # Each notebook in a workspace of its own: in the default one, a second browser restores the first one's
+        # notebook beside its own, and the panel that has focus (where a run-all goes) is then a matter of timing.
+        yield lambda name: f"{base}/lab/workspaces/{Path(name).stem}/tree/{name}?reset&token={token}"
     finally:
         proc.terminate()
         try:
@@ -128,8 +130,15 @@ def lab(tmp_path_factory):
             proc.wait()
 
 
-STATE_JS = """
-const nb = window.jupyterapp && window.jupyterapp.shell.currentWidget;
+# `nb`: the notebook panel of the path given (arguments[0]), wherever the focus is.
+FIND_PANEL = """
+const app = window.jupyterapp;
+const nb = app && [...app.shell.widgets('main')].find(w => w.context && w.context.path === arguments[0]);
+"""
+
+STATE_JS = (
+    FIND_PANEL
+    + """
 if (!nb || !nb.content || !nb.sessionContext || !nb.sessionContext.session) return null;
 const kernel = nb.sessionContext.session.kernel;
 const cells = nb.content.widgets.filter(c => c.model.type === 'code');
@@ -146,6 +155,7 @@ return {kernel: kernel ? kernel.status : null, cells: cells.length,
         busy: cells.filter(c => c.promptNode && c.promptNode.textContent.includes('*')).length,
         errors: errors};
 """
+)
 
 # What the reader sees of widgets: broken views, and errors printed into a widget's output area.
 WIDGETS_JS = """
@@ -186,22 +196,24 @@ def wait_for(driver, script, ready, timeout, what, *args):
     pytest.fail(f"timed out after {timeout} s waiting for {what}; last state: {value}")
 
 
-def run_all(driver, url: str) -> dict:
-    """Open the notebook, run every cell, wait for the kernel; return the final state (no cell may fail)."""
+def run_all(driver, url: str, path: str) -> dict:
+    """Open the notebook at ``path``, run every cell, wait for the kernel; return the final state (no cell may
+    fail)."""
     driver.get(url)
-    wait_for(driver, STATE_JS, lambda s: s is not None and s["kernel"] == "idle", 180, "the notebook and its kernel")
+    ready = wait_for(
+        driver, STATE_JS, lambda s: s is not None and s["kernel"] == "idle", 180, "the notebook and its kernel", path
+    )
+    assert ready["run"] == 0, f"{path} opened with cells already run: {ready}"
     start = time.monotonic()
-    # A run-all sent while the notebook panel is still settling can be dropped (seen twice: the kernel idle, no cell
-    # ever queued, once for four tries in a row): the command acts on the notebook tracker's current widget, which
-    # follows focus, so activate the panel first, and send it again until some cell has started.
+    # The run-all command acts on the notebook that has focus: give it to this one, and send the command again if no
+    # cell has started (a command sent while the panel is still settling can be dropped).
     for _ in range(4):
         driver.execute_script(
-            "const app = window.jupyterapp; app.shell.activateById(app.shell.currentWidget.id);"
-            "app.commands.execute('notebook:run-all-cells');"
+            FIND_PANEL + "app.shell.activateById(nb.id); app.commands.execute('notebook:run-all-cells');", path
         )
         deadline = time.monotonic() + 30
         while time.monotonic() < deadline:
-            s = driver.execute_script(STATE_JS)
+            s = driver.execute_script(STATE_JS, path)
             if s is not None and (s["errors"] or s["run"] or s["busy"]):
                 break
             time.sleep(1)
@@ -214,6 +226,7 @@ def run_all(driver, url: str) -> dict:
         lambda s: s["errors"] or (s["kernel"] == "idle" and s["busy"] == 0 and s["run"] == s["cells"]),
         RUN_TIMEOUT,
         "every cell to run",
+        path,
     )
     assert not state["errors"], f"a cell failed: {state['errors']}"
     print(f"{url.split('?')[0].rsplit('/', 1)[-1]} ran in {time.monotonic() - start:.0f} s ({state['cells']} cells)")
@@ -244,7 +257,7 @@ def move_slider(driver, label: str, value: str) -> tuple[dict, dict]:
 
 def test_chapter_03_runs_and_its_slider_redraws(lab, browser_factory):
     driver = browser_factory(offline=True, bypass="127.0.0.1")
-    run_all(driver, lab(NOTEBOOK.name))
+    run_all(driver, lab(NOTEBOOK.name), NOTEBOOK.name)
     widgets = driver.execute_script(WIDGETS_JS)
     assert not widgets["broken"] and not widgets["errors"], widgets
 
@@ -259,7 +272,7 @@ def test_chapter_03_runs_and_its_slider_redraws(lab, browser_factory):
 def test_the_check_sees_a_callback_that_raises(lab, browser_factory):
     """The planted fault: the same checks, on a widget whose callback raises, must report it."""
     driver = browser_factory(offline=True, bypass="127.0.0.1")
-    run_all(driver, lab("planted_fault.ipynb"))
+    run_all(driver, lab("planted_fault.ipynb"), "planted_fault.ipynb")
     assert not driver.execute_script(WIDGETS_JS)["errors"]  # nothing raised before the slider moves
     move_slider(driver, "steps", "8")
     errors = driver.execute_script(WIDGETS_JS)["errors"]
