@@ -24,7 +24,9 @@ own evaluation at the profile's sizes:
 
 Each seed's numbers go to ``<out>/<study>-<profile>-<precision>-seed<k>.json`` (written atomically; an existing one is
 skipped; a run in another precision, on another machine, is another file) with the data, the machine, the precision,
-the commit and the time spent: ``{"values": {"discord/sjpe_rf": ...}}``, every claim number the study's tables give
+the commit, the time spent, the resolved configs of the models and evaluations (``"configs"``,
+:func:`motionlab.evaluation.studies.study_configs`: a run whose configs are no longer the code's is set aside when the
+claims table reads the folder) and ``{"values": {"discord/sjpe_rf": ...}}``, every claim number the study's tables give
 (:func:`motionlab.evaluation.reconstruction_claim_cells`, :func:`~motionlab.evaluation.multi_claim_cells`). The
 claims table reads the folder (:mod:`motionlab.report.spread`) and adds to each comparison it judges the spread it
 finds there, pooling the runs of every precision.
@@ -36,7 +38,6 @@ import argparse
 import json
 import sys
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import torch
@@ -45,80 +46,56 @@ from motionlab import models
 from motionlab.build.stamp import machine_stamp
 from motionlab.data.embedded.generator import VERSION
 from motionlab.evaluation import (
-    ReconstructionConfig,
-    TextToMotionConfig,
     evaluate_multi,
     evaluate_reconstruction,
     evaluate_t2m,
     multi_claim_cells,
     reconstruction_claim_cells,
 )
-from motionlab.evaluation.multi import paper_config
-from motionlab.evaluation.t2m import seed_replica
+from motionlab.evaluation.studies import StudyPlan, study_configs, study_plan
 from motionlab.io.common import write_text_atomic
-from motionlab.sizes import chapter_sizes
 
 OUT = Path(__file__).resolve().parents[1] / "book" / "data" / "training_seeds" / f"embedded-v{VERSION}"
 
 
-def _discord(training_seed: int, dataset, profile: str) -> tuple[list[str], dict[str, float], list[str]]:
-    """DisCoRD's chain of ``training_seed`` scored with chapter 05's evaluation (no timing)."""
-    config = ReconstructionConfig.from_sizes(chapter_sizes(profile).discord, training_seed=training_seed)
-    config = replace(config, timing_repeats=0)
-    _train(config.book_models(), dataset, profile)
+def _discord(plan: StudyPlan, dataset, profile: str) -> tuple[dict[str, float], list[str]]:
+    """DisCoRD's chain of the plan's seed scored with chapter 05's evaluation (no timing)."""
+    config = plan.evaluations["reconstruction"]
     table = evaluate_reconstruction(dataset, config, profile)
     cells = reconstruction_claim_cells(table, config)
     values = {f"discord/{key}": table.estimate(row, metric).mean for key, (row, metric) in cells.items()}
-    return config.book_models(), values, [config.command_line(profile)]
+    return values, [config.command_line(profile)]
 
 
-def _m2d2m(training_seed: int, dataset, profile: str) -> tuple[list[str], dict[str, float], list[str]]:
-    """M2D2M's text-to-motion models of ``training_seed`` scored with chapter 09's and chapter 07's evaluations: the
+def _m2d2m(plan: StudyPlan, dataset, profile: str) -> tuple[dict[str, float], list[str]]:
+    """M2D2M's text-to-motion models of the plan's seed scored with chapter 09's and chapter 07's evaluations: the
     multi-motion table of the multi-motion model, TPS of the uniform model, and guidance s = 0 vs 4 of the dynamic
-    one. Only the diffusion model is retrained; every seed reads the book's VQ tokens."""
-    sizes = chapter_sizes(profile)
-    suffix = f"-seed{training_seed}" if training_seed else ""
-    multi, uniform, dynamic = (
-        f"t2m/multi-eta0.25{suffix}",
-        seed_replica("uniform", training_seed),
-        seed_replica("dynamic", training_seed),
-    )
-    _train([multi, uniform, dynamic], dataset, profile)
-    paper = paper_config(sizes.tps, model=multi)
-    arms = paper_config(sizes.tps, model=uniform, methods=("independent", "tps"))
-    guidance = TextToMotionConfig.from_sizes(
-        sizes.diffusion,
-        models=(dynamic,),
-        guidance_scales=(0.0, 4.0),
-        multimodality=False,
-        reconstruction=False,
-        token_stats=False,
-    )
+    one. Only the diffusion models are retrained; every seed reads the book's VQ tokens."""
+    paper, arms, guidance = (plan.evaluations[role] for role in ("multi", "multi_uniform", "guidance"))
     table, uniform_table = evaluate_multi(dataset, paper, profile), evaluate_multi(dataset, arms, profile)
     t2m = evaluate_t2m(dataset, guidance, profile)
     values = {f"tps/{key}": table.estimate(row, m).mean for key, (row, m) in multi_claim_cells(table).items()}
     tps_row, _ = multi_claim_cells(uniform_table)["jerk_tps"]
     values["tps/jerk_tps_uniform"] = uniform_table.estimate(tps_row, "jerk").mean
+    dynamic = guidance.models[0]
     for key, scale in (("fid_guided", 4), ("fid_unguided", 0)):
         values[f"diffusion/{key}"] = t2m.estimate(guidance.row(dynamic, scale), "fid").mean
-    commands = [c.command_line(profile) for c in (paper, arms, guidance)]
-    return [multi, uniform, dynamic], values, commands
+    return values, [c.command_line(profile) for c in (paper, arms, guidance)]
 
 
-def _transitions(training_seed: int, dataset, profile: str) -> tuple[list[str], dict[str, float], list[str]]:
-    """Chapter 08's comparison at ``training_seed``: the dynamic arm (the paper's η) against the uniform one (η = 0),
+def _transitions(plan: StudyPlan, dataset, profile: str) -> tuple[dict[str, float], list[str]]:
+    """Chapter 08's comparison at the plan's seed: the dynamic arm (the paper's η) against the uniform one (η = 0),
     single motions at s = 4, scored with chapter 08's evaluation (its sizes, the two arms alone). The book trains seed 0
     of each arm; this study's seeds give the spread its verdict adds."""
-    uniform, dynamic = seed_replica("uniform", training_seed), seed_replica("dynamic", training_seed)
-    _train([uniform, dynamic], dataset, profile)
-    config = TextToMotionConfig.from_sizes(chapter_sizes(profile).transitions, models=(uniform, dynamic))
+    config = plan.evaluations["t2m"]
+    uniform, dynamic = config.models
     table = evaluate_t2m(dataset, config, profile)
     values = {
         f"transitions/{metric}_{arm}": table.estimate(config.row(name), metric).mean
         for arm, name in (("dynamic", dynamic), ("uniform", uniform))
         for metric in ("fid", "top3")
     }
-    return [uniform, dynamic], values, [config.command_line(profile)]
+    return values, [config.command_line(profile)]
 
 
 STUDIES = {"discord": _discord, "m2d2m": _m2d2m, "transitions": _transitions}
@@ -130,12 +107,22 @@ def _train(names: list[str], dataset, profile: str) -> None:
 
 
 def score(study: str, training_seed: int, profile: str) -> dict:
-    """Train (or load) ``study``'s models of ``training_seed`` and score them: the claim numbers by key."""
+    """Train (or load) ``study``'s models of ``training_seed`` and score them: the claim numbers by key, with the
+    configs they were measured with (:func:`motionlab.evaluation.studies.study_configs`)."""
     dataset = models.load("data", None, profile)
+    plan = study_plan(study, training_seed, profile)
     start, cpu = time.perf_counter(), time.process_time()
-    trained, values, commands = STUDIES[study](training_seed, dataset, profile)
+    _train(list(plan.models), dataset, profile)
+    values, commands = STUDIES[study](plan, dataset, profile)
     spent = {"seconds": round(time.perf_counter() - start, 1), "cpu_seconds": round(time.process_time() - cpu, 1)}
-    return {"data": dataset.key, "models": trained, "commands": commands, "seconds": spent, "values": values}
+    return {
+        "data": dataset.key,
+        "models": list(plan.models),
+        "commands": commands,
+        "configs": study_configs(study, profile),
+        "seconds": spent,
+        "values": values,
+    }
 
 
 def main(argv: list[str] | None = None) -> int:

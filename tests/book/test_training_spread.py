@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import json
 from dataclasses import replace
 
@@ -10,6 +11,7 @@ from scipy.special import stdtrit
 
 from motionlab import report, results
 from motionlab.estimate import Estimate
+from motionlab.evaluation.studies import config_changes, study_configs, study_plan
 from motionlab.report.render import chapter_findings, claims_table
 from motionlab.report.spread import Run, RunDifferences, TrainingSpread, load_spread, read_spread, this_build
 from motionlab.results import FAILS, HOLDS, INCONCLUSIVE, Less, Result
@@ -18,7 +20,13 @@ DATA = "embedded-v3-n3000-s0-abc"
 NOTE = f"DisCoRD; evaluate reconstruction: profile laptop, bf16, data {DATA}, split test"
 
 
-def _write(folder, seed, values, profile="laptop", data=DATA, study="discord", precision="fp32"):
+@functools.cache
+def _configs(study: str, profile: str) -> str:
+    return json.dumps(study_configs(study, profile))
+
+
+def _write(folder, seed, values, profile="laptop", data=DATA, study="discord", precision="fp32", configs=None):
+    """A study file as experiments/training_seeds.py writes it; ``configs`` None: the code's own (an up-to-date run)."""
     record = {
         "study": study,
         "training_seed": seed,
@@ -27,7 +35,8 @@ def _write(folder, seed, values, profile="laptop", data=DATA, study="discord", p
         "cpu": "CPU",
         "precision": precision,
     }
-    record |= {"commit": "abc1234", "values": values}
+    configs = json.loads(_configs(study, profile)) if configs is None else configs
+    record |= {"commit": "abc1234", "configs": configs, "values": values}
     path = folder / f"{study}-{profile}-{precision}-seed{seed}.json"
     path.write_text(json.dumps(record))
     return path
@@ -302,7 +311,7 @@ def test_the_mean_over_runs_reads_alike_where_single_runs_would_not(tmp_path):
 def test_a_ground_truth_number_no_run_moves_pools_with_the_model_beside_it(tmp_path):
     # Handshake's Jerk against real single motions: the real side is the same on every run and names no model's data
     for seed, jerk in enumerate((1.50, 1.44, 1.43)):
-        _write(tmp_path, seed, {"jerk_handshake": jerk, "jerk_gt": 1.60}, study="tps")
+        _write(tmp_path, seed, {"tps/jerk_handshake": jerk, "tps/jerk_gt": 1.60}, study="m2d2m")
     spread = load_spread("laptop", tmp_path)
     model = Result("tps", "jerk_handshake", 1.51, ci=(1.41, 1.61), note=NOTE, precision="fp32")
     real = Result("tps", "jerk_gt", 1.60, ci=(1.57, 1.63), note="ground truth on 91 instances", precision="fp32")
@@ -360,3 +369,54 @@ def test_the_repeat_check_measures_how_far_this_build_is_from_the_run_it_replace
     assert repeat_check(spread, bf16).startswith("no recorded run is seed 0 (bf16): this build joins the recorded")
     unknown = {k: replace(r, precision=None) for k, r in same.items()}
     assert "precision is not recorded" in repeat_check(spread, unknown)
+
+
+def test_a_run_measured_with_other_configs_is_set_aside(tmp_path):
+    """A run recorded before a studied model or its evaluation changed measured something else: it joins no verdict,
+    and the spread says which run and what changed. So does a run recorded without its configs."""
+    for seed in range(3):
+        _write(tmp_path, seed, {"sjpe_rf": 1.38 + seed / 100, "sjpe_ff": 1.45})
+    configs = study_configs("discord", "laptop")
+    configs["models"]["discord/rvq"]["train_steps"] += 1000
+    configs["evaluations"]["reconstruction"]["test_clips"] = 999
+    _write(tmp_path, 3, {"sjpe_rf": 9.0, "sjpe_ff": 1.45}, configs=configs)
+    legacy = _write(tmp_path, 1, {"sjpe_rf": 9.0, "sjpe_ff": 1.45}, precision="bf16")
+    legacy.write_text(json.dumps({k: v for k, v in json.loads(legacy.read_text()).items() if k != "configs"}))
+    spread = load_spread("laptop", tmp_path)
+    assert spread.runs("discord/sjpe_rf", "discord/sjpe_ff") == [Run("fp32", 0), Run("fp32", 1), Run("fp32", 2)]
+    assert len(spread.measured) == 3 and len(spread.set_aside) == 2
+    changed, missing = sorted(spread.set_aside, key=lambda line: "seed 3" not in line)
+    assert "seed 3 (fp32)" in changed and "models.discord/rvq.train_steps" in changed
+    assert "evaluations.reconstruction.test_clips" in changed
+    assert "seed 1 (bf16)" in missing and "without the configs" in missing
+
+
+def test_config_changes_name_every_differing_field():
+    recorded = {"models": {"a": {"steps": 1, "lr": 0.1}, "b": {"width": 8}}, "evaluations": {"e": {"clips": 5}}}
+    current = {"models": {"a": {"steps": 2, "lr": 0.1}}, "evaluations": {"e": {"clips": 5, "seeds": 3}}}
+    assert config_changes(recorded, current) == ["evaluations.e.seeds", "models.a.steps", "models.b"]
+    assert config_changes(current, current) == []
+
+
+def test_the_study_plans_name_the_models_each_seed_trains():
+    assert study_plan("discord", 2, "laptop").models == ("tokenizer/rvq-seed2", "evaluator", "discord/rvq-seed2")
+    assert study_plan("transitions", 0, "laptop").models == ("t2m/uniform", "t2m/dynamic")
+    m2d2m = study_plan("m2d2m", 1, "laptop")
+    assert m2d2m.models == ("t2m/multi-eta0.25-seed1", "t2m/uniform-seed1", "t2m/dynamic-seed1")
+    assert m2d2m.evaluations["multi"].model == "t2m/multi-eta0.25-seed1"
+    assert study_plan("discord", 0, "laptop").evaluations["reconstruction"].timing_repeats == 0
+    with pytest.raises(ValueError, match="study"):
+        study_plan("tps", 0, "laptop")
+    with pytest.raises(ValueError, match="training_seed"):
+        study_plan("discord", -1, "laptop")
+
+
+def test_the_recorded_studies_measured_the_books_models_and_evaluations():
+    """Every run under book/data/training_seeds/ was measured with the configs the code builds now. A change to a
+    studied model (its training steps, its width, ...) or to the evaluation that scores it fails here until the study
+    is recorded again (experiments/training_seeds.py), instead of pooling runs of other models into the verdicts."""
+    spread = load_spread("laptop")
+    assert spread is not None, "no training-seed study recorded for the laptop profile"
+    assert not spread.set_aside, "\n".join(spread.set_aside)
+    studies = {line.split()[0] for line in spread.measured}
+    assert studies == {"discord", "m2d2m", "transitions"} and len(spread.measured) == 15

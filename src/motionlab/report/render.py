@@ -224,9 +224,8 @@ def verdicts_by_run(spread: TrainingSpread, recorded: Mapping[str, Result], clai
     for claim in claims:
         if any(k not in recorded for k in claim.keys):
             continue
-        # the keys a run changes: the study measured them on the chapter's data (a real-data chapter's numbers, and
-        # ground truth, whose note names no model's data, stay as recorded)
-        studied = [k for k in claim.keys if k in spread.values and spread.applies_to(recorded[k].note)]
+        # the keys a run changes; the others (real data, ground truth) stay as recorded
+        studied = [k for k in claim.keys if spread.moves(k, recorded[k].note)]
         runs = spread.runs(*studied) if studied else []
         if not runs:
             continue
@@ -257,7 +256,7 @@ def repeat_check(spread: TrainingSpread, recorded: Mapping[str, Result]) -> str:
     CPU of that precision); far above 1 on many numbers: the recorded study is stale (the models have changed since)."""
     from statistics import median, stdev
 
-    on_data = [r for r in recorded.values() if r.name in spread.values and spread.applies_to(r.note)]
+    on_data = [r for r in recorded.values() if spread.moves(r.name, r.note)]
     precisions = {r.precision for r in on_data}
     if not on_data or len(precisions) != 1 or None in precisions:
         return "this build's precision is not recorded with its numbers: it joins the recorded runs as one more"

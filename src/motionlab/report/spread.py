@@ -85,13 +85,15 @@ class TrainingSpread:
     (:class:`Run`: a seed in a precision).
 
     ``data`` is the dataset key the numbers were measured on (a spread applies only to results on that data),
-    ``measured`` one line per run: where and how it was measured.
+    ``measured`` one line per run: where and how it was measured; ``set_aside`` one line per recorded run left out
+    because its models or evaluations are not the code's any more (:func:`read_spread`).
     """
 
     profile: str
     data: str
     values: dict[str, dict[Run, float]] = field(default_factory=dict)
     measured: tuple[str, ...] = ()
+    set_aside: tuple[str, ...] = ()
 
     def runs(self, *keys: str) -> list[Run]:
         """The training runs on which every one of ``keys`` was measured (sorted by precision, then seed)."""
@@ -134,6 +136,11 @@ class TrainingSpread:
         """Whether a recorded result (by its note, which names the data as ``data <key>``) is on this spread's data."""
         return bool(note) and f"data {self.data}" in note
 
+    def moves(self, key: str, note: str | None) -> bool:
+        """Whether another training run moves the recorded number ``key`` (its result's ``note``): the study measured
+        it, on that result's data (a real-data chapter's number, or ground truth whose note names no data, does not)."""
+        return key in self.values and self.applies_to(note)
+
 
 def find_folder(parts: Sequence[str], start: Path | None = None) -> Path | None:
     """A folder of the repository (e.g. ``book/data/training_seeds``), from the working directory upwards, then from
@@ -151,10 +158,13 @@ def read_spread(files: Iterable[Path], profile: str) -> TrainingSpread | None:
     none match.
 
     Every file must be on the same data; a run (seed and precision) recorded twice (two studies of one chain) is an
-    error.
+    error. A run whose recorded configs (``"configs"``) differ from those the code builds now
+    (:func:`motionlab.evaluation.studies.study_configs`) measured other models or another evaluation: it is set aside
+    (``TrainingSpread.set_aside`` says which and why), so a study recorded before a change never joins a verdict.
     """
     values: dict[str, dict[Run, float]] = {}
-    data, measured = None, []
+    data, measured, set_aside = None, [], []
+    current: dict[str, dict] = {}  # study -> the code's configs, built once
     for path in sorted(files):
         record = json.loads(Path(path).read_text())
         if record.get("profile") != profile:
@@ -163,6 +173,9 @@ def read_spread(files: Iterable[Path], profile: str) -> TrainingSpread | None:
             raise ValueError(f"{path} was measured on {record['data']}, the others on {data}")
         data, study = record["data"], record["study"]
         run = Run(record["precision"], int(record["training_seed"]))
+        if (stale := _stale(record, current, profile)) is not None:
+            set_aside.append(f"{study} {run} ({Path(path).name}, commit {record['commit']}): {stale}")
+            continue
         for key, value in record["values"].items():
             per_run = values.setdefault(key if "/" in key else f"{study}/{key}", {})
             if run in per_run:
@@ -171,7 +184,25 @@ def read_spread(files: Iterable[Path], profile: str) -> TrainingSpread | None:
         measured.append(f"{study} {run}: {record['cpu']}, {record['precision']}, commit {record['commit']}")
     if data is None:
         return None
-    return TrainingSpread(profile, data, values, tuple(measured))
+    return TrainingSpread(profile, data, values, tuple(measured), tuple(set_aside))
+
+
+def _stale(record: dict, current: dict[str, dict], profile: str) -> str | None:
+    """Why ``record``'s run measured something other than the code's models and evaluations, or None if it did not."""
+    from motionlab.evaluation.studies import STUDIES, config_changes, study_configs
+
+    study = record["study"]
+    if study not in STUDIES:
+        return f"{study!r} is none of the code's studies {STUDIES}"
+    if "configs" not in record:
+        return "recorded without the configs it was measured with"
+    if study not in current:
+        current[study] = study_configs(study, profile)
+    changes = config_changes(record["configs"], current[study])
+    if not changes:
+        return None
+    more = f" and {len(changes) - 3} more" if len(changes) > 3 else ""
+    return f"its configs differ from the code's at {', '.join(changes[:3])}{more}"
 
 
 def load_spread(profile: str, folder: str | Path | None = None, data: str | None = None) -> TrainingSpread | None:

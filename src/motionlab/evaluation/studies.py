@@ -1,0 +1,133 @@
+"""The training-seed studies: which models each trains again, which evaluations score them, and what that depends on.
+
+A study (``experiments/training_seeds.py``) trains a chapter's models with other seeds and scores every run with the
+chapter's own evaluation; :mod:`motionlab.report.spread` pools the recorded runs with this build's. Pooling is only
+right while the recorded runs are of the models and evaluations the book has now: a run recorded before a model's
+training steps or width, or an evaluation's sizes, changed measured something else. So every study file records
+:func:`study_configs`, the resolved configs of the models it trained and of the evaluations that scored them (at
+seed 0, since the seeds differ only in their seed), and :func:`motionlab.report.spread.read_spread` sets aside a run
+whose configs are not the code's.
+
+==============  =====================================================================================================
+study           models (seed k > 0 adds ``-seed<k>``) and their evaluation
+==============  =====================================================================================================
+``discord``     ``tokenizer/rvq`` and ``discord/rvq``, scored by chapter 05's reconstruction table (without timing)
+``m2d2m``       ``t2m/multi-eta0.25`` (chapter 09's multi-motion table), ``t2m/uniform`` (its TPS rows) and
+                ``t2m/dynamic`` (chapter 07's guidance rows, s = 0 and 4), on the book's VQ tokens and evaluator
+``transitions`` ``t2m/uniform`` and ``t2m/dynamic`` scored by chapter 08's table (single motions at s = 4)
+==============  =====================================================================================================
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Any
+
+from motionlab.profiles import get_profile
+
+STUDIES = ("discord", "m2d2m", "transitions")
+
+
+@dataclass(frozen=True)
+class StudyPlan:
+    """One run of a study: the models it trains (by :func:`motionlab.models.load` name) and its evaluations' configs
+    (:class:`~motionlab.evaluation.ReconstructionConfig`, :class:`~motionlab.evaluation.MultiMotionConfig` or
+    :class:`~motionlab.evaluation.TextToMotionConfig`, by role)."""
+
+    study: str
+    training_seed: int
+    models: tuple[str, ...]
+    evaluations: dict[str, Any]
+
+
+def study_plan(study: str, training_seed: int, profile: str | None = None) -> StudyPlan:
+    """The models and evaluations of ``study``'s run at ``training_seed`` (0: the book's own models)."""
+    from motionlab.evaluation.multi import paper_config
+    from motionlab.evaluation.reconstruction import ReconstructionConfig
+    from motionlab.evaluation.t2m import TextToMotionConfig, seed_replica
+    from motionlab.sizes import chapter_sizes
+
+    if study not in STUDIES:
+        raise ValueError(f"study must be one of {STUDIES}, got {study!r}")
+    if isinstance(training_seed, bool) or not isinstance(training_seed, int) or training_seed < 0:
+        raise ValueError(f"training_seed must be an int >= 0, got {training_seed!r}")
+    sizes = chapter_sizes(get_profile(profile))
+    uniform, dynamic = seed_replica("uniform", training_seed), seed_replica("dynamic", training_seed)
+    if study == "discord":
+        config = ReconstructionConfig.from_sizes(sizes.discord, training_seed=training_seed)
+        evaluation = replace(config, timing_repeats=0)  # the timing measures the machine, not the models
+        return StudyPlan(study, training_seed, tuple(evaluation.book_models()), {"reconstruction": evaluation})
+    if study == "transitions":
+        config = TextToMotionConfig.from_sizes(sizes.transitions, models=(uniform, dynamic))
+        return StudyPlan(study, training_seed, (uniform, dynamic), {"t2m": config})
+    multi = "t2m/multi-eta0.25" + (f"-seed{training_seed}" if training_seed else "")
+    evaluations = {
+        "multi": paper_config(sizes.tps, model=multi),
+        "multi_uniform": paper_config(sizes.tps, model=uniform, methods=("independent", "tps")),
+        "guidance": TextToMotionConfig.from_sizes(
+            sizes.diffusion,
+            models=(dynamic,),
+            guidance_scales=(0.0, 4.0),
+            multimodality=False,
+            reconstruction=False,
+            token_stats=False,
+        ),
+    }
+    return StudyPlan(study, training_seed, (multi, uniform, dynamic), evaluations)
+
+
+def study_configs(study: str, profile: str | None = None) -> dict[str, dict[str, Any]]:
+    """What ``study``'s numbers depend on besides the seed and the precision, as JSON-ready dicts:
+    ``{"models": {name: config}, "evaluations": {role: config}}`` of its seed-0 run, every field resolved.
+
+    Builds configs only (an untrained RVQ tokenizer supplies the DisCoRD decoder's code width): no data, no training.
+    """
+    from motionlab.train.cache import config_dict
+
+    profile = get_profile(profile)
+    plan = study_plan(study, 0, profile)
+    return {
+        "models": {name: config_dict(config) for name, config in _model_configs(study, profile).items()},
+        "evaluations": {role: config_dict(config) for role, config in plan.evaluations.items()},
+    }
+
+
+def _model_configs(study: str, profile: str) -> dict[str, Any]:
+    """The seed-0 training configs of the models ``study`` trains and of those it reads (tokenizer, evaluator)."""
+    from motionlab.metrics.evaluator_training import evaluator_config
+    from motionlab.tokenizers import build_tokenizer, rvq_config, vq_config
+
+    evaluator = evaluator_config(profile)  # every study's FID and R-precision
+    if study == "discord":
+        from motionlab.flow import discord_config
+
+        tokenizer = rvq_config(profile)
+        decoder = discord_config(profile, tokenizer=build_tokenizer(tokenizer))
+        return {"tokenizer/rvq": tokenizer, "discord/rvq": decoder, "evaluator": evaluator}
+    from motionlab.diffusion.training import diffusion_training_config
+    from motionlab.multimotion import MULTI_MOTION_ETA
+
+    tokenizer = vq_config(profile)
+    t2m = {"t2m/uniform": 0.0, "t2m/dynamic": None}  # None: the paper's η
+    if study == "m2d2m":
+        t2m = {"t2m/multi-eta0.25": MULTI_MOTION_ETA, **t2m}
+    configs = {"tokenizer/vq": tokenizer, "evaluator": evaluator}
+    for name, eta in t2m.items():
+        configs[name] = diffusion_training_config(profile, num_codes=tokenizer.codebook_size, eta=eta)
+    return configs
+
+
+def config_changes(recorded: dict[str, Any], current: dict[str, Any], prefix: str = "") -> list[str]:
+    """The dotted paths at which two nested config dicts differ (``"models.discord/rvq.train_steps"``), sorted."""
+    changes = []
+    for key in sorted(set(recorded) | set(current)):
+        path = f"{prefix}{key}"
+        a, b = recorded.get(key, _MISSING), current.get(key, _MISSING)
+        if isinstance(a, dict) and isinstance(b, dict):
+            changes += config_changes(a, b, f"{path}.")
+        elif a != b:
+            changes.append(path)
+    return changes
+
+
+_MISSING = object()
