@@ -420,3 +420,15 @@ def test_the_recorded_studies_measured_the_books_models_and_evaluations():
     assert not spread.set_aside, "\n".join(spread.set_aside)
     studies = {line.split()[0] for line in spread.measured}
     assert studies == {"discord", "m2d2m", "transitions"} and len(spread.measured) == 15
+
+
+def test_checking_the_configs_draws_nothing_from_the_global_rng():
+    """Chapters read the study mid-way (chapters 05, 08): checking its configs must not move their random draws."""
+    import torch
+
+    torch.manual_seed(0)
+    expected = torch.rand(3)
+    torch.manual_seed(0)
+    for study in ("discord", "m2d2m", "transitions"):
+        study_configs(study, "laptop")
+    assert torch.equal(torch.rand(3), expected)

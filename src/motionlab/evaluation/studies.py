@@ -21,6 +21,7 @@ study           models (seed k > 0 adds ``-seed<k>``) and their evaluation
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from types import SimpleNamespace
 from typing import Any
 
 from motionlab.profiles import get_profile
@@ -80,7 +81,7 @@ def study_configs(study: str, profile: str | None = None) -> dict[str, dict[str,
     """What ``study``'s numbers depend on besides the seed and the precision, as JSON-ready dicts:
     ``{"models": {name: config}, "evaluations": {role: config}}`` of its seed-0 run, every field resolved.
 
-    Builds configs only (an untrained RVQ tokenizer supplies the DisCoRD decoder's code width): no data, no training.
+    Builds configs only: no data, no training, no network.
     """
     from motionlab.train.cache import config_dict
 
@@ -95,15 +96,23 @@ def study_configs(study: str, profile: str | None = None) -> dict[str, dict[str,
 def _model_configs(study: str, profile: str) -> dict[str, Any]:
     """The seed-0 training configs of the models ``study`` trains and of those it reads (tokenizer, evaluator)."""
     from motionlab.metrics.evaluator_training import evaluator_config
-    from motionlab.tokenizers import build_tokenizer, rvq_config, vq_config
+    from motionlab.tokenizers import rvq_config, vq_config
 
     evaluator = evaluator_config(profile)  # every study's FID and R-precision
     if study == "discord":
         from motionlab.flow import discord_config
+        from motionlab.tokenizers.models import RVQVAE
 
         tokenizer = rvq_config(profile)
-        decoder = discord_config(profile, tokenizer=build_tokenizer(tokenizer))
-        return {"tokenizer/rvq": tokenizer, "discord/rvq": decoder, "evaluator": evaluator}
+        # what discord_config reads of a tokenizer, without building the network
+        shape = SimpleNamespace(
+            feature_dim=tokenizer.feature_dim, code_dim=tokenizer.code_dim, downsample=RVQVAE.downsample
+        )
+        return {
+            "tokenizer/rvq": tokenizer,
+            "discord/rvq": discord_config(profile, tokenizer=shape),
+            "evaluator": evaluator,
+        }
     from motionlab.diffusion.training import diffusion_training_config
     from motionlab.multimotion import MULTI_MOTION_ETA
 
