@@ -23,7 +23,9 @@ The η axis (issue 35): ``--etas 1 2 4 8`` trains the dynamic model at each η f
 (``t2m/eta<η>``) and scores it the same way, into ``book/data/m2d2m_eta/embedded-v<N>/eta<η>.json``.
 
 Every model's result goes to ``<out>/<arm>-seed<k>-steps<n>.json`` (written atomically; an existing one is skipped)
-with the machine, the precision, the commit and the training time; one folder per version of the embedded data
+with the machine, the precision, the commit, the training time and the model's training config (``"configs"``; the
+tables carry their evaluations' configs): a file whose configs are no longer the code's is set aside when the book
+reads the folder (:func:`motionlab.report.budget.read_records`). One folder per version of the embedded data
 (``book/data/m2d2m_budget/embedded-v<N>/``), which the chapters read.
 """
 
@@ -40,13 +42,11 @@ import torch
 from motionlab import models
 from motionlab.build.stamp import machine_stamp
 from motionlab.data.embedded.generator import VERSION
-from motionlab.evaluation import MultiMotionConfig, TextToMotionConfig, evaluate_multi, evaluate_t2m
+from motionlab.evaluation import evaluate_multi, evaluate_t2m
+from motionlab.evaluation.studies import budget_evaluations, budget_model_config
 from motionlab.io.common import write_text_atomic
-from motionlab.sizes import chapter_sizes
 
 ARMS = ("dynamic", "uniform")
-GUIDANCE_SCALES = (0.0, 1.0, 2.0, 4.0)
-MULTI_METHODS = ("independent", "tps", "tps:T_s=50", "handshake:transition=40")
 OUT = Path(__file__).resolve().parents[1] / "book" / "data" / "m2d2m_budget" / f"embedded-v{VERSION}"
 ETA_OUT = OUT.parents[1] / "m2d2m_eta" / f"embedded-v{VERSION}"
 
@@ -55,34 +55,18 @@ def model_name(arm: str, seed: int, steps: int) -> str:
     return f"t2m/{arm}-seed{seed}-steps{steps}"
 
 
-def score(name: str, profile: str, seed: int = 0) -> dict:
-    """Train (or load) ``name`` and score it at the chapters' sizes of ``profile``: both tables as JSON dicts."""
-    sizes = chapter_sizes(profile)
+def score(name: str, profile: str) -> dict:
+    """Train (or load) ``name`` and score it at the chapters' sizes of ``profile``: both tables as JSON dicts, and
+    the model's training config (``"configs"``: a record whose configs are no longer the code's is set aside)."""
     dataset = models.load("data", None, profile)
     start, cpu = time.perf_counter(), time.process_time()
     models.load(name, dataset, profile)  # trained here on first use, so that its time is its own
     training = {"seconds": round(time.perf_counter() - start, 1), "cpu_seconds": round(time.process_time() - cpu, 1)}
-    t2m = TextToMotionConfig(
-        models=(name,),
-        guidance_scales=GUIDANCE_SCALES,
-        limit=sizes.diffusion.eval_clips,
-        repeats=sizes.diffusion.repeats,
-        num_steps=sizes.diffusion.num_steps,
-        seed=seed,
-    )
-    multi = MultiMotionConfig(
-        methods=MULTI_METHODS,
-        model=name,
-        segment_jerk=True,
-        instances=sizes.tps.instances,
-        repeats=sizes.tps.repeats,
-        num_steps=sizes.tps.num_steps,
-        seed=seed,
-    )
+    evaluations = budget_evaluations(name, profile)
     return {
         "training": training,
-        "t2m": evaluate_t2m(dataset, t2m, profile).to_json_dict(),
-        "multi": evaluate_multi(dataset, multi, profile).to_json_dict(),
+        "t2m": evaluate_t2m(dataset, evaluations["t2m"], profile).to_json_dict(),
+        "multi": evaluate_multi(dataset, evaluations["multi"], profile).to_json_dict(),
     }
 
 
@@ -98,14 +82,8 @@ def eta_axis(etas: list[float], profile: str, out: Path) -> None:
             print(f"{name}: recorded already ({path})", file=sys.stderr)
             continue
         print(f"{name}: training (or loading) and scoring", file=sys.stderr)
-        record = {
-            "model": name,
-            "eta": eta,
-            "training_seed": 0,
-            "profile": profile,
-            **machine_stamp(),
-            **score(name, profile),
-        }
+        record = {"model": name, "eta": eta, "training_seed": 0, "profile": profile, **machine_stamp()}
+        record |= {"configs": {"model": budget_model_config(record, profile)}, **score(name, profile)}
         write_text_atomic(path, json.dumps(record, indent=1) + "\n")
         print(f"{name}: wrote {path}", file=sys.stderr)
 
@@ -140,7 +118,6 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"{name}: recorded already ({path})", file=sys.stderr)
                 continue
             print(f"{name}: training (or loading) and scoring", file=sys.stderr)
-            result = score(name, args.profile)
             record = {
                 "model": name,
                 "arm": args.arm,
@@ -148,8 +125,8 @@ def main(argv: list[str] | None = None) -> int:
                 "steps": steps,
                 "profile": args.profile,
                 **machine_stamp(),
-                **result,
             }
+            record |= {"configs": {"model": budget_model_config(record, args.profile)}, **score(name, args.profile)}
             write_text_atomic(path, json.dumps(record, indent=1) + "\n")
             print(f"{name}: wrote {path}", file=sys.stderr)
     return 0

@@ -83,7 +83,7 @@ def _discord(variant: str, dataset, profile: str, seed: int, device, overrides: 
 
 def _text_to_motion(variant: str, dataset, profile: str, device):
     from motionlab.diffusion import text_to_motion_for_dataset
-    from motionlab.diffusion.training import PAPER_ETA
+    from motionlab.diffusion.training import PAPER_ETA, budget_config
     from motionlab.multimotion import MULTI_MOTION_ETA
 
     name = f"t2m/{variant}"
@@ -105,7 +105,12 @@ def _text_to_motion(variant: str, dataset, profile: str, device):
         return text_to_motion_for_dataset(
             dataset,
             profile,
-            config=_budget_config(arm, dataset, profile, int(steps), device),
+            config=budget_config(
+                profile,
+                num_codes=_tokenizer("vq", dataset, profile, device).codebook_size,
+                dynamic=arm == "dynamic",
+                steps=int(steps),
+            ),
             seed=int(training_seed or 0),
             device=device,
         )
@@ -113,20 +118,6 @@ def _text_to_motion(variant: str, dataset, profile: str, device):
         return text_to_motion_for_dataset(dataset, profile, eta=None if arm == "dynamic" else 0.0, device=device)
     eta = PAPER_ETA if arm == "dynamic" else 0.0
     return text_to_motion_for_dataset(dataset, profile, eta=eta, seed=int(training_seed), device=device)
-
-
-def _budget_config(arm: str, dataset, profile: str, steps: int, device):
-    """The profile's text-to-motion config of ``arm`` with ``steps`` training steps (its schedule stretched to them:
-    the learning rate still drops at 100/110 of the run); at the profile's own steps it is the profile's model."""
-    from dataclasses import replace
-
-    from motionlab.diffusion.training import PAPER_ETA, diffusion_training_config, with_overrides
-
-    if steps < 1:
-        raise ValueError(f"a training budget needs at least 1 step, got t2m/...-steps{steps}")
-    codes = _tokenizer("vq", dataset, profile, device).codebook_size
-    config = diffusion_training_config(profile, num_codes=codes, eta=PAPER_ETA if arm == "dynamic" else 0.0)
-    return with_overrides(config, transformer=replace(config.transformer, train_steps=steps))
 
 
 def load(

@@ -9,10 +9,12 @@ import pytest
 from motionlab.estimate import Estimate
 from motionlab.evaluation import EvaluationTable
 from motionlab.evaluation.multi import PAPER_METHODS, method_rows
+from motionlab.evaluation.studies import budget_evaluations, budget_model_config
 from motionlab.multimotion import GROUND_TRUTH_CONCAT, GROUND_TRUTH_SINGLE
 from motionlab.report.budget import budget_results, load_budget, scale_statement
 from motionlab.report.render import claims_table
 from motionlab.results import CLAIMS, FAILS, HOLDS
+from motionlab.train.cache import config_dict
 
 LAPTOP = 800  # the laptop profile's training steps
 
@@ -35,10 +37,17 @@ def _record(arm: str, seed: int, steps: int, tps_jerk: float, fid_s4: float = 12
     multi = EvaluationTable("multi", "laptop", "d", "test", 3, 0, {}, {}, ("jerk", "fid"), rows | methods)
     t2m_rows = {f"{name}, s = {s:g}": {"fid": Estimate(fid_s4 if s == 4 else 5.0, 1.0, 3)} for s in (0, 1, 2, 4)}
     t2m = EvaluationTable("t2m", "laptop", "d", "test", 3, 0, {}, {}, ("fid",), t2m_rows)
-    return {"model": name, "arm": arm, "training_seed": seed, "steps": steps, "profile": "laptop"} | {
-        "multi": multi.to_json_dict(),
-        "t2m": t2m.to_json_dict(),
-    }
+    record = {"model": name, "arm": arm, "training_seed": seed, "steps": steps, "profile": "laptop", "commit": "abc"}
+    return _with_configs(record | {"multi": multi.to_json_dict(), "t2m": t2m.to_json_dict()})
+
+
+def _with_configs(record: dict) -> dict:
+    """``record`` with the configs experiments/m2d2m_budget.py records: the model's, and the evaluations' in the
+    tables (as the code builds them now: an up-to-date record)."""
+    record["configs"] = {"model": budget_model_config(record, "laptop")}
+    for task, config in budget_evaluations(record["model"], "laptop").items():
+        record[task]["config"] = config_dict(config)
+    return record
 
 
 @pytest.fixture
@@ -145,10 +154,39 @@ def test_the_eta_axis_takes_eta_0_and_the_paper_s_from_the_budget_study(study_fo
         record["t2m"]["rows"] = {
             k.replace("t2m/dynamic-seed0-steps800", f"t2m/eta{eta:g}"): v for k, v in record["t2m"]["rows"].items()
         }
-        (etas / f"eta{eta:g}.json").write_text(json.dumps(record))
+        (etas / f"eta{eta:g}.json").write_text(json.dumps(_with_configs(record)))
     axis = load_eta_axis("laptop", etas, load_budget("laptop", study_folder))
     assert axis.etas == [0.0, 0.5, 2.0, 8.0]
     columns = axis.columns()
     assert {eta: e.mean for eta, e in columns["FID ↓ (s = 4)"].items()} == {0.0: 12.0, 0.5: 12.0, 2.0: 22.0, 8.0: 28.0}
     assert columns["TPS transition Jerk"][8.0].mean == 1.0 and columns["TPS transition Jerk"][0.5].mean == 1.2
     assert load_eta_axis("full", etas) is None
+
+
+def test_a_budget_measured_with_other_configs_is_set_aside(study_folder):
+    """A budget trained with another model config (a wider network, another schedule) or scored with another
+    evaluation is another model: it joins no curve and no scale line, and the study says which file and why."""
+    path = study_folder / "uniform-seed0-steps3200.json"
+    record = json.loads(path.read_text())
+    record["configs"]["model"]["transformer"]["d_model"] *= 2
+    record["multi"]["config"]["instances"] = 8
+    path.write_text(json.dumps(record))
+    legacy = study_folder / "dynamic-seed1-steps3200.json"
+    legacy.write_text(json.dumps({k: v for k, v in json.loads(legacy.read_text()).items() if k != "configs"}))
+    study = load_budget("laptop", study_folder)
+    assert sorted(study.records) == [("dynamic", 0, 800), ("dynamic", 0, 3200), ("uniform", 0, 800)]
+    assert study.budgets == [800]  # 3,200 steps lost its uniform arm
+    changed, missing = sorted(study.set_aside, key=lambda line: not line.startswith("uniform"))
+    assert "model.transformer.d_model" in changed and "multi.instances" in changed
+    assert missing.startswith("dynamic-seed1-steps3200.json") and "without its model's config" in missing
+
+
+def test_the_recorded_budgets_measured_the_books_models_and_evaluations():
+    """Every budget and η file under book/data/ was trained and scored as the code would now; a change to the laptop
+    text-to-motion model or to chapter 07's or 09's evaluation sizes fails here until the study is recorded again."""
+    from motionlab.report.budget import load_eta_axis
+
+    study, axis = load_budget("laptop"), load_eta_axis("laptop")
+    assert study is not None and axis is not None
+    assert not study.set_aside and not axis.set_aside, "\n".join(study.set_aside + axis.set_aside)
+    assert len(study.records) == 18 and study.budgets == [800, 3200, 8000]

@@ -121,6 +121,16 @@ def diffusion_training_config(
     return resized(config, DIFFUSION_TRAINING, profile)
 
 
+def budget_config(profile: str | None, *, num_codes: int, dynamic: bool, steps: int) -> DiffusionTrainingConfig:
+    """The profile's config of one arm (``dynamic``: the paper's η; else uniform, η = 0) trained for ``steps`` steps,
+    its schedule stretched to them (the learning rate still drops at 100/110 of the run): the budget study's models.
+    At the profile's own steps it is the profile's model."""
+    if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
+        raise ValueError(f"a training budget needs at least 1 step, got {steps!r}")
+    config = diffusion_training_config(profile, num_codes=num_codes, eta=PAPER_ETA if dynamic else 0.0)
+    return with_overrides(config, transformer=replace(config.transformer, train_steps=steps))
+
+
 def with_overrides(config: DiffusionTrainingConfig, **overrides) -> DiffusionTrainingConfig:
     """A copy with top-level fields replaced (``transformer=...``, ``max_tokens=...``); unknown names fail."""
     unknown = sorted(set(overrides) - {f.name for f in fields(config)})

@@ -140,3 +140,67 @@ def config_changes(recorded: dict[str, Any], current: dict[str, Any], prefix: st
 
 
 _MISSING = object()
+
+
+# ------------------------------------------------------------------------------------ the budget study and the η axis
+# ``experiments/m2d2m_budget.py``: the laptop text-to-motion models trained for other budgets (``t2m/<arm>-seed<k>-
+# steps<n>``), or at other η (``t2m/eta<η>``), each scored at chapter 07's and chapter 09's sizes.
+BUDGET_GUIDANCE_SCALES = (0.0, 1.0, 2.0, 4.0)
+BUDGET_METHODS = ("independent", "tps", "tps:T_s=50", "handshake:transition=40")
+
+
+def budget_evaluations(model: str, profile: str | None = None) -> dict[str, Any]:
+    """The two evaluations that score a budget-study or η-axis ``model``: ``{"t2m": ..., "multi": ...}``, chapter
+    07's single-motion table at guidance 0, 1, 2 and 4 and chapter 09's multi-motion table of four methods, at their
+    sizes. Every model is scored with evaluation seed 0: the same captions, instances and sampling seeds."""
+    from motionlab.evaluation.multi import MultiMotionConfig
+    from motionlab.evaluation.t2m import TextToMotionConfig
+    from motionlab.sizes import chapter_sizes
+
+    sizes = chapter_sizes(get_profile(profile))
+    t2m = TextToMotionConfig(
+        models=(model,),
+        guidance_scales=BUDGET_GUIDANCE_SCALES,
+        limit=sizes.diffusion.eval_clips,
+        repeats=sizes.diffusion.repeats,
+        num_steps=sizes.diffusion.num_steps,
+        seed=0,
+    )
+    multi = MultiMotionConfig(
+        methods=BUDGET_METHODS,
+        model=model,
+        segment_jerk=True,
+        instances=sizes.tps.instances,
+        repeats=sizes.tps.repeats,
+        num_steps=sizes.tps.num_steps,
+        seed=0,
+    )
+    return {"t2m": t2m, "multi": multi}
+
+
+def budget_model_config(record: dict[str, Any], profile: str | None = None) -> dict[str, Any]:
+    """The resolved training config of a budget-study record's model (its ``arm``, ``steps`` and ``training_seed``)
+    or of an η-axis record's (its ``eta``), as :func:`motionlab.models.load` trains it."""
+    from motionlab.diffusion.training import budget_config, diffusion_training_config, with_overrides
+    from motionlab.tokenizers import vq_config
+    from motionlab.train.cache import config_dict
+
+    profile = get_profile(profile)
+    codes = vq_config(profile).codebook_size
+    if "eta" in record:  # t2m/eta<η>: the profile's dynamic model at that η, training seed 0
+        return config_dict(diffusion_training_config(profile, num_codes=codes, eta=float(record["eta"])))
+    config = budget_config(profile, num_codes=codes, dynamic=record["arm"] == "dynamic", steps=int(record["steps"]))
+    return config_dict(with_overrides(config, seed=int(record["training_seed"])))
+
+
+def budget_changes(record: dict[str, Any], profile: str | None = None) -> list[str] | None:
+    """Where a budget-study or η-axis record was measured with other configs than the code builds now: its model's
+    (``"configs"``) and its two evaluations' (inside its tables). None where it holds no model config to compare."""
+    from motionlab.train.cache import config_dict
+
+    if "model" not in record.get("configs", {}):
+        return None
+    recorded = {"model": record["configs"]["model"], **{k: record[k]["config"] for k in ("t2m", "multi")}}
+    evaluations = budget_evaluations(record["model"], profile)
+    current = {"model": budget_model_config(record, profile), **{k: config_dict(v) for k, v in evaluations.items()}}
+    return config_changes(recorded, current)

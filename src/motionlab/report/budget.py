@@ -36,6 +36,7 @@ class BudgetStudy:
     profile: str
     laptop_steps: int
     records: dict[tuple[str, int, int], dict] = field(default_factory=dict)
+    set_aside: tuple[str, ...] = ()  # files measured with other configs than the code's (:func:`read_records`)
     # budget_results per (steps, guidance scale): each claim of the table reads them, the tables are parsed once
     _results: dict = field(default_factory=dict, compare=False, repr=False)
 
@@ -76,16 +77,37 @@ def load_budget(profile: str, folder: str | Path | None = None) -> BudgetStudy |
         if root is None:
             return None
         folder = root / f"embedded-v{VERSION}"
-    records = {}
-    for path in sorted(Path(folder).glob("*.json")):
-        record = json.loads(path.read_text())
-        if record.get("profile") == profile:
-            records[(record["arm"], int(record["training_seed"]), int(record["steps"]))] = record
-    if not records:
+    found, set_aside = read_records(Path(folder), profile)
+    records = {(r["arm"], int(r["training_seed"]), int(r["steps"])): r for r in found}
+    if not records and not set_aside:
         return None
     if "train_steps" not in DENOISER.get(profile, {}):
         raise ValueError(f"the budget study is measured against a profile's own steps; {profile!r} sets none")
-    return BudgetStudy(profile, DENOISER[profile]["train_steps"], records)
+    return BudgetStudy(profile, DENOISER[profile]["train_steps"], records, tuple(set_aside))
+
+
+def read_records(folder: Path, profile: str) -> tuple[list[dict], list[str]]:
+    """The budget-study (or η-axis) files of ``profile`` in ``folder`` whose model and evaluations are the ones the
+    code builds now, and one line per file set aside because they are not
+    (:func:`motionlab.evaluation.studies.budget_changes`): a model trained or scored otherwise is another model."""
+    from motionlab.evaluation.studies import budget_changes
+
+    records, set_aside = [], []
+    for path in sorted(folder.glob("*.json")):
+        record = json.loads(path.read_text())
+        if record.get("profile") != profile:
+            continue
+        changes = budget_changes(record, profile)
+        if changes is None:
+            set_aside.append(f"{path.name} (commit {record['commit']}): recorded without its model's config")
+        elif changes:
+            more = f" and {len(changes) - 3} more" if len(changes) > 3 else ""
+            set_aside.append(
+                f"{path.name} (commit {record['commit']}): its configs differ at {', '.join(changes[:3])}{more}"
+            )
+        else:
+            records.append(record)
+    return records, set_aside
 
 
 def _cells(record: dict, arm: str, guidance_scale: float) -> dict[str, Estimate]:
@@ -200,6 +222,7 @@ class EtaAxis:
 
     profile: str
     records: dict[float, dict]
+    set_aside: tuple[str, ...] = ()  # files measured with other configs than the code's
 
     @property
     def etas(self) -> list[float]:
@@ -235,12 +258,9 @@ def load_eta_axis(profile: str, folder: str | Path | None = None, budget: Budget
 
         root = find_folder(ETA_FOLDER)
         folder = None if root is None else root / f"embedded-v{VERSION}"
-    records = {}
-    for path in sorted(Path(folder).glob("*.json")) if folder is not None else ():
-        record = json.loads(path.read_text())
-        if record.get("profile") == profile:
-            records[float(record["eta"])] = record
-    if not records:
+    found, set_aside = read_records(Path(folder), profile) if folder is not None else ([], [])
+    records = {float(record["eta"]): record for record in found}
+    if not records and not set_aside:
         return None
     budget = load_budget(profile) if budget is None else budget
     if budget is not None:
@@ -248,7 +268,7 @@ def load_eta_axis(profile: str, folder: str | Path | None = None, budget: Budget
             key = (arm, 0, budget.laptop_steps)
             if eta not in records and key in budget.records:
                 records[eta] = budget.records[key]
-    return EtaAxis(profile, records)
+    return EtaAxis(profile, records, tuple(set_aside))
 
 
 __all__ = [
