@@ -1,12 +1,12 @@
-"""The training-seed studies: which models each trains again, which evaluations score them, and what that depends on.
+"""The recorded studies: the models each trains, the evaluations that score them, and the configs behind both.
 
-A study (``experiments/training_seeds.py``) trains a chapter's models with other seeds and scores every run with the
-chapter's own evaluation; :mod:`motionlab.report.spread` pools the recorded runs with this build's. Pooling is only
-right while the recorded runs are of the models and evaluations the book has now: a run recorded before a model's
-training steps or width, or an evaluation's sizes, changed measured something else. So every study file records
-:func:`study_configs`, the resolved configs of the models it trained and of the evaluations that scored them (at
-seed 0, since the seeds differ only in their seed), and :func:`motionlab.report.spread.read_spread` sets aside a run
-whose configs are not the code's.
+A training-seed study (``experiments/training_seeds.py``) trains a chapter's models with other seeds and scores every
+run with the chapter's own evaluation; :mod:`motionlab.report.spread` pools the recorded runs with this build's.
+Pooling is only right while the recorded runs are of the models and evaluations the book has now: a run recorded
+before a model's training steps or width, or an evaluation's sizes, changed measured something else. So every study
+file records :func:`study_configs`, the resolved configs of the models it trained and of the evaluations that scored
+them (at seed 0, since the seeds differ only in their seed), and :func:`motionlab.report.spread.read_spread` sets
+aside a run whose configs are not the code's.
 
 ==============  =====================================================================================================
 study           models (seed k > 0 adds ``-seed<k>``) and their evaluation
@@ -16,6 +16,8 @@ study           models (seed k > 0 adds ``-seed<k>``) and their evaluation
                 ``t2m/dynamic`` (chapter 07's guidance rows, s = 0 and 4), on the book's VQ tokens and evaluator
 ``transitions`` ``t2m/uniform`` and ``t2m/dynamic`` scored by chapter 08's table (single motions at s = 4)
 ==============  =====================================================================================================
+
+The budget study and the η axis (``experiments/m2d2m_budget.py``) are checked the same way: :func:`budget_changes`.
 """
 
 from __future__ import annotations
