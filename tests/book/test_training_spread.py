@@ -389,6 +389,10 @@ def test_a_run_measured_with_other_configs_is_set_aside(tmp_path):
     assert "seed 3 (fp32)" in changed and "models.discord/rvq.train_steps" in changed
     assert "evaluations.reconstruction.test_clips" in changed
     assert "seed 1 (bf16)" in missing and "without the configs" in missing
+    for path in tmp_path.glob("*-fp32-*.json"):  # now every run measured other models: as if none were recorded
+        path.unlink()
+    with pytest.warns(UserWarning, match="every recorded run"):
+        assert load_spread("laptop", tmp_path) is None
 
 
 def test_config_changes_name_every_differing_field():

@@ -16,6 +16,7 @@ with Student's t, where a budget has several).
 from __future__ import annotations
 
 import json
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -79,7 +80,7 @@ def load_budget(profile: str, folder: str | Path | None = None) -> BudgetStudy |
         folder = root / f"embedded-v{VERSION}"
     found, set_aside = read_records(Path(folder), profile)
     records = {(r["arm"], int(r["training_seed"]), int(r["steps"])): r for r in found}
-    if not records and not set_aside:
+    if not records:
         return None
     if "train_steps" not in DENOISER.get(profile, {}):
         raise ValueError(f"the budget study is measured against a profile's own steps; {profile!r} sets none")
@@ -107,6 +108,8 @@ def read_records(folder: Path, profile: str) -> tuple[list[dict], list[str]]:
             )
         else:
             records.append(record)
+    if set_aside and not records:  # every file measured other models: as if none were recorded, said once
+        warnings.warn(f"every file in {folder} was set aside:\n" + "\n".join(set_aside), stacklevel=3)
     return records, set_aside
 
 
@@ -260,7 +263,7 @@ def load_eta_axis(profile: str, folder: str | Path | None = None, budget: Budget
         folder = None if root is None else root / f"embedded-v{VERSION}"
     found, set_aside = read_records(Path(folder), profile) if folder is not None else ([], [])
     records = {float(record["eta"]): record for record in found}
-    if not records and not set_aside:
+    if not records:
         return None
     budget = load_budget(profile) if budget is None else budget
     if budget is not None:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -207,7 +208,8 @@ def _stale(record: dict, current: dict[str, dict], profile: str) -> str | None:
 
 def load_spread(profile: str, folder: str | Path | None = None, data: str | None = None) -> TrainingSpread | None:
     """The recorded training-seed spread of ``profile``'s models on the embedded data (None where none was measured,
-    or, given ``data``, a dataset key, where it was measured on other data).
+    or, given ``data``, a dataset key, where it was measured on other data, or where every recorded run was set aside:
+    then a warning lists them).
 
     ``folder`` defaults to the repository's ``book/data/training_seeds/embedded-v<N>`` of the current embedded data.
     """
@@ -219,4 +221,13 @@ def load_spread(profile: str, folder: str | Path | None = None, data: str | None
             return None
         folder = root / f"embedded-v{VERSION}"
     spread = read_spread(Path(folder).glob("*.json"), profile)
-    return None if spread is None or (data is not None and spread.data != data) else spread
+    if spread is None or (data is not None and spread.data != data):
+        return None
+    if not spread.measured:  # every run measured other models: as if none were recorded, said once
+        warnings.warn(
+            "every recorded run of the training-seed study was set aside, so the verdicts read this build alone:\n"
+            + "\n".join(spread.set_aside),
+            stacklevel=2,
+        )
+        return None
+    return spread
