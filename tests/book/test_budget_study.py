@@ -193,4 +193,4 @@ def test_the_recorded_budgets_measured_the_books_models_and_evaluations():
     study, axis = load_budget("laptop"), load_eta_axis("laptop")
     assert study is not None and axis is not None
     assert not study.set_aside and not axis.set_aside, "\n".join(study.set_aside + axis.set_aside)
-    assert len(study.records) == 18 and study.budgets == [800, 3200, 8000]
+    assert len(study.records) >= 18 and {800, 3200, 8000} <= set(study.budgets)
