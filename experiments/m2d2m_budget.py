@@ -56,8 +56,8 @@ def model_name(arm: str, seed: int, steps: int) -> str:
 
 
 def score(name: str, profile: str) -> dict:
-    """Train (or load) ``name`` and score it at the chapters' sizes of ``profile``: both tables as JSON dicts, and
-    the model's training config (``"configs"``: a record whose configs are no longer the code's is set aside)."""
+    """Train (or load) ``name`` and score it at the chapters' sizes of ``profile``: both tables as JSON dicts (each
+    carries its evaluation's config) and the training time."""
     dataset = models.load("data", None, profile)
     start, cpu = time.perf_counter(), time.process_time()
     models.load(name, dataset, profile)  # trained here on first use, so that its time is its own

@@ -144,6 +144,12 @@ def config_changes(recorded: dict[str, Any], current: dict[str, Any], prefix: st
 _MISSING = object()
 
 
+def changes_phrase(changes: list[str], shown: int = 3) -> str:
+    """``"its configs differ at a.b, c and 2 more"``: why a recorded run is set aside, for a reader."""
+    more = f" and {len(changes) - shown} more" if len(changes) > shown else ""
+    return f"its configs differ from the code's at {', '.join(changes[:shown])}{more}"
+
+
 # ------------------------------------------------------------------------------------ the budget study and the η axis
 # ``experiments/m2d2m_budget.py``: the laptop text-to-motion models trained for other budgets (``t2m/<arm>-seed<k>-
 # steps<n>``), or at other η (``t2m/eta<η>``), each scored at chapter 07's and chapter 09's sizes.

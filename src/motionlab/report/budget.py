@@ -91,7 +91,7 @@ def read_records(folder: Path, profile: str) -> tuple[list[dict], list[str]]:
     """The budget-study (or η-axis) files of ``profile`` in ``folder`` whose model and evaluations are the ones the
     code builds now, and one line per file set aside because they are not
     (:func:`motionlab.evaluation.studies.budget_changes`): a model trained or scored otherwise is another model."""
-    from motionlab.evaluation.studies import budget_changes
+    from motionlab.evaluation.studies import budget_changes, changes_phrase
 
     records, set_aside = [], []
     for path in sorted(folder.glob("*.json")):
@@ -102,10 +102,7 @@ def read_records(folder: Path, profile: str) -> tuple[list[dict], list[str]]:
         if changes is None:
             set_aside.append(f"{path.name} (commit {record['commit']}): recorded without its model's config")
         elif changes:
-            more = f" and {len(changes) - 3} more" if len(changes) > 3 else ""
-            set_aside.append(
-                f"{path.name} (commit {record['commit']}): its configs differ at {', '.join(changes[:3])}{more}"
-            )
+            set_aside.append(f"{path.name} (commit {record['commit']}): {changes_phrase(changes)}")
         else:
             records.append(record)
     if set_aside and not records:  # every file measured other models: as if none were recorded, said once

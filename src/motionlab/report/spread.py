@@ -190,7 +190,7 @@ def read_spread(files: Iterable[Path], profile: str) -> TrainingSpread | None:
 
 def _stale(record: dict, current: dict[str, dict], profile: str) -> str | None:
     """Why ``record``'s run measured something other than the code's models and evaluations, or None if it did not."""
-    from motionlab.evaluation.studies import STUDIES, config_changes, study_configs
+    from motionlab.evaluation.studies import STUDIES, changes_phrase, config_changes, study_configs
 
     study = record["study"]
     if study not in STUDIES:
@@ -200,10 +200,7 @@ def _stale(record: dict, current: dict[str, dict], profile: str) -> str | None:
     if study not in current:
         current[study] = study_configs(study, profile)
     changes = config_changes(record["configs"], current[study])
-    if not changes:
-        return None
-    more = f" and {len(changes) - 3} more" if len(changes) > 3 else ""
-    return f"its configs differ from the code's at {', '.join(changes[:3])}{more}"
+    return changes_phrase(changes) if changes else None
 
 
 def load_spread(profile: str, folder: str | Path | None = None, data: str | None = None) -> TrainingSpread | None:
