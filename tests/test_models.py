@@ -343,3 +343,31 @@ def test_an_eta_name_is_the_dynamic_model_at_that_eta(monkeypatch):
     assert kw["eta"] == 0.125
     with pytest.raises(ValueError, match="unknown text-to-motion model 't2m/eta-1'"):
         models.load("t2m/eta-1", "ds", "smoke")
+
+
+def test_the_studies_record_the_configs_models_load_trains(monkeypatch):
+    """``evaluation.studies`` states the configs of the studied models without training them. Its statement must be
+    what ``models.load`` hands to training: the DisCoRD decoder's whole config, and the text-to-motion models' η,
+    distance, schedule and seed (from which ``text_to_motion_for_dataset`` builds theirs), and the default evaluator."""
+    from motionlab.evaluation.studies import study_configs
+    from motionlab.tokenizers import rvq_config
+
+    verbs = _Verbs(monkeypatch)
+    rvq = rvq_config("laptop")
+    verbs.tokenizers["rvq"] = SimpleNamespace(
+        kind="rvq", feature_dim=rvq.feature_dim, code_dim=rvq.code_dim, downsample=4
+    )
+    stated = {**study_configs("discord", "laptop")["models"], **study_configs("m2d2m", "laptop")["models"]}
+
+    ((_, decoder),) = [
+        c for c in verbs.of(lambda: models.load("discord/rvq", "ds", "laptop")) if c[0] != "tokenizer_for_dataset"
+    ]
+    assert cache.config_dict(decoder["config"]) == stated["discord/rvq"]
+    for name in ("t2m/dynamic", "t2m/uniform", "t2m/multi-eta0.25"):
+        ((_, call),) = verbs.of(lambda n=name: models.load(n, "ds", "laptop"))
+        transformer = stated[name]["transformer"]
+        assert (call["eta"] if call["eta"] is not None else PAPER_ETA) == transformer["eta"], name
+        assert (call["distance"], call["schedule"], call["config"], call["seed"]) == ("l2_rank", None, None, None), name
+        assert transformer["distance"] == "l2_rank" and stated[name]["seed"] == 0
+    ((_, evaluator),) = verbs.of(lambda: models.load("evaluator", "ds", "laptop"))
+    assert evaluator["config"] is None  # load_or_train_evaluator then trains evaluator_config(profile): the stated one
