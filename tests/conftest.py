@@ -41,7 +41,14 @@ def one_torch_thread():
     torch.set_num_threads(previous)
 
 
-RUN_SETTINGS = ("MOTIONLAB_PROFILE", "MOTIONLAB_PRECISION", "MOTIONLAB_THREADS", "MOTIONLAB_FORCE_PRECISION")
+RUN_SETTINGS = (
+    "MOTIONLAB_PROFILE",
+    "MOTIONLAB_PRECISION",
+    "MOTIONLAB_THREADS",
+    "MOTIONLAB_FORCE_PRECISION",
+    "MOTIONLAB_DETERMINISTIC",
+    "MOTIONLAB_COMPILE",
+)
 
 
 @pytest.fixture(autouse=True)
@@ -54,12 +61,14 @@ def fp32_run_settings():
     saved = {name: os.environ.get(name) for name in RUN_SETTINGS}
     os.environ["MOTIONLAB_PRECISION"] = "fp32"
     os.environ["MOTIONLAB_FORCE_PRECISION"] = "1"
+    deterministic = torch.are_deterministic_algorithms_enabled(), torch.is_deterministic_algorithms_warn_only_enabled()
     yield
     for name, value in saved.items():
         if value is None:
             os.environ.pop(name, None)
         else:
             os.environ[name] = value
+    torch.use_deterministic_algorithms(deterministic[0], warn_only=deterministic[1])  # a run setting may set it
 
 
 GLOVE_WORDS = ["sos", "eos", "unk", "a", "person", "walk", "left"]

@@ -95,7 +95,7 @@ def _train(args: argparse.Namespace) -> int:
     if args.tokenizer is not None and args.model != "discord":
         raise ValueError("--tokenizer chooses whose tokens the DisCoRD decoder reads; it needs the model 'discord'")
     _check_cache_writable()  # a read-only cache would fail only after the training
-    ctx = init_distributed()  # a no-op unless launched by torchrun
+    ctx = init_distributed(device=args.device)  # a no-op unless launched by torchrun
     profile = args.settings.profile
     model_job = {
         "vq": "tokenizer/vq",
@@ -710,7 +710,9 @@ def _settings(args: argparse.Namespace):
         if args.precision is None:
             raise ValueError("--force-precision insists on a --precision; give one")
         os.environ["MOTIONLAB_FORCE_PRECISION"] = "1"  # exported: workers and chapter kernels insist too
-    settings = apply_settings(resolve_settings(getattr(args, "profile", None), args.precision, args.threads))
+    settings = apply_settings(
+        resolve_settings(getattr(args, "profile", None), args.precision, args.threads, args.deterministic, args.compile)
+    )
     explain_precision(settings.precision, get_device(getattr(args, "device", None)))  # refuses before any work
     return settings
 
@@ -737,6 +739,21 @@ def build_parser() -> argparse.ArgumentParser:
         "--force-precision",
         action="store_true",
         help="run the --precision asked for even where it is refused (default: $MOTIONLAB_FORCE_PRECISION)",
+    )
+    parser.add_argument(
+        "--deterministic",
+        action="store_true",
+        default=None,
+        help="deterministic kernels only, so a GPU run repeats bit for bit (resume included); slower on a GPU, "
+        "no change on a CPU, whose kernels already are (default: $MOTIONLAB_DETERMINISTIC, else off)",
+    )
+    parser.add_argument(
+        "--compile",
+        choices=["auto", "on", "off"],
+        default=None,
+        help="torch.compile the networks while training: auto compiles on CUDA where it was measured to pay "
+        "(the DisCoRD U-Net), never on a CPU; on compiles every trained network; off compiles nothing "
+        "(default: $MOTIONLAB_COMPILE, else auto)",
     )
     sub = parser.add_subparsers(dest="command", required=True)
 

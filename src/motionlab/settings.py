@@ -1,9 +1,11 @@
-"""The run-wide settings, resolved once at the top of a run and handed down: profile, precision, threads.
+"""The run-wide settings, resolved once at the top of a run and handed down: profile, precision, threads,
+determinism and compilation.
 
 The way nanoGPT resolves one config before anything runs: a command (:mod:`motionlab.cli`) or a chapter
 (:func:`motionlab.book.setup`) builds one :class:`RunSettings` from its options and the environment, and
 :func:`apply_settings` makes it the run's. Applying exports the settings as ``MOTIONLAB_PROFILE``,
-``MOTIONLAB_PRECISION`` (and ``MOTIONLAB_THREADS`` when set), so that every process the run starts (the
+``MOTIONLAB_PRECISION``, ``MOTIONLAB_DETERMINISTIC``, ``MOTIONLAB_COMPILE`` (and ``MOTIONLAB_THREADS`` when set),
+so that every process the run starts (the
 training workers of ``train book``, the chapters' kernels) inherits the same run, and library code that was
 given no profile or precision (``get_profile(None)``, :func:`motionlab.precision.resolve_precision`) reads the
 same values.
@@ -32,10 +34,17 @@ class RunSettings:
     profile: str
     precision: str = "auto"
     threads: int | None = None  # torch CPU threads; None: leave torch's choice
+    # Bit-identical results on CUDA too (resume, batch order): deterministic kernels only. The CPU's are already.
+    deterministic: bool = False
+    compile: str = "auto"  # torch.compile: "auto" (where measured to pay, CUDA only) | "on" | "off"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "profile", get_profile(self.profile))
         object.__setattr__(self, "precision", requested_precision(self.precision))
+        if not isinstance(self.deterministic, bool):
+            raise ValueError(f"deterministic must be True or False, got {self.deterministic!r}")
+        if self.compile not in COMPILE_CHOICES:
+            raise ValueError(f"compile must be one of {COMPILE_CHOICES}, got {self.compile!r}")
         if self.threads is not None and (
             isinstance(self.threads, bool) or not isinstance(self.threads, int) or self.threads < 1
         ):
@@ -53,19 +62,67 @@ class RunSettings:
         return explain_precision(self.precision, device)[0]
 
     def describe(self, device: str | torch.device = "cpu") -> str:
-        """One phrase for plan lines and logs, e.g. ``"profile laptop, precision bf16 (auto: AMX tiles)"``."""
+        """One phrase for plan lines and logs, e.g. ``"profile laptop, precision bf16 (auto: AMX tiles)"``; the
+        determinism and compile settings are named when they are not the defaults."""
         resolved, why = explain_precision(self.precision, device)
-        return f"profile {self.profile}, precision {resolved} ({why})"
+        extra = (", deterministic kernels" if self.deterministic else "") + (
+            f", compile {self.compile}" if self.compile != "auto" else ""
+        )
+        return f"profile {self.profile}, precision {resolved} ({why}){extra}"
+
+
+COMPILE_CHOICES = ("auto", "on", "off")
+
+
+def env_deterministic() -> bool:
+    """``$MOTIONLAB_DETERMINISTIC`` as a bool (unset: False)."""
+    value = os.environ.get("MOTIONLAB_DETERMINISTIC", "").strip().lower()
+    if value in ("", "0", "false", "no"):
+        return False
+    if value in ("1", "true", "yes"):
+        return True
+    raise ValueError(f"MOTIONLAB_DETERMINISTIC must be 1 or 0, got {value!r}")
+
+
+def env_compile() -> str:
+    """``$MOTIONLAB_COMPILE`` (unset: ``auto``), validated."""
+    value = os.environ.get("MOTIONLAB_COMPILE", "auto").strip().lower() or "auto"
+    if value not in COMPILE_CHOICES:
+        raise ValueError(f"MOTIONLAB_COMPILE must be one of {COMPILE_CHOICES}, got {value!r}")
+    return value
 
 
 def resolve_settings(
-    profile: str | None = None, precision: str | None = None, threads: int | None = None
+    profile: str | None = None,
+    precision: str | None = None,
+    threads: int | None = None,
+    deterministic: bool | None = None,
+    compile: str | None = None,
 ) -> RunSettings:
     """The settings from explicit values, else ``$MOTIONLAB_PROFILE`` / ``$MOTIONLAB_PRECISION`` /
-    ``$MOTIONLAB_THREADS``, else the defaults (``laptop``, ``auto``, torch's threads); validated."""
+    ``$MOTIONLAB_THREADS`` / ``$MOTIONLAB_DETERMINISTIC`` / ``$MOTIONLAB_COMPILE``, else the defaults (``laptop``,
+    ``auto``, torch's threads, not deterministic, ``auto``); validated."""
     return RunSettings(
-        get_profile(profile), requested_precision(precision), threads if threads is not None else env_threads()
+        get_profile(profile),
+        requested_precision(precision),
+        threads if threads is not None else env_threads(),
+        deterministic if deterministic is not None else env_deterministic(),
+        compile if compile is not None else env_compile(),
     )
+
+
+def use_deterministic_kernels(on: bool) -> None:
+    """Make torch pick deterministic kernels (cuDNN and cuBLAS included) or lift that; a no-op change on the CPU.
+
+    An operation with no deterministic kernel warns (once) instead of stopping the run; the warning names it.
+    """
+    if on:
+        # cuBLAS needs a fixed workspace to reduce in a fixed order; must be set before its first call
+        os.environ.setdefault("CUBLAS_WORKSPACE_CONFIG", ":4096:8")
+    torch.use_deterministic_algorithms(on, warn_only=True)
+    torch.backends.cudnn.deterministic = on
+    if on:
+        torch.backends.cudnn.benchmark = False
 
 
 def apply_settings(settings: RunSettings) -> RunSettings:
@@ -73,10 +130,21 @@ def apply_settings(settings: RunSettings) -> RunSettings:
     torch's thread count. Returns ``settings``."""
     os.environ["MOTIONLAB_PROFILE"] = settings.profile
     os.environ["MOTIONLAB_PRECISION"] = settings.precision
+    os.environ["MOTIONLAB_DETERMINISTIC"] = "1" if settings.deterministic else "0"
+    os.environ["MOTIONLAB_COMPILE"] = settings.compile
+    use_deterministic_kernels(settings.deterministic)
     if settings.threads is not None:
         os.environ["MOTIONLAB_THREADS"] = str(settings.threads)
         torch.set_num_threads(settings.threads)
     return settings
 
 
-__all__ = ["RunSettings", "apply_settings", "resolve_settings"]
+__all__ = [
+    "COMPILE_CHOICES",
+    "RunSettings",
+    "apply_settings",
+    "env_compile",
+    "env_deterministic",
+    "resolve_settings",
+    "use_deterministic_kernels",
+]

@@ -16,6 +16,8 @@ NOT_CONFIG = {
     "profile",
     "precision",
     "force_precision",
+    "deterministic",
+    "compile",
     "threads",
     "data",
     "device",

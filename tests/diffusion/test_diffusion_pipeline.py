@@ -23,7 +23,7 @@ from motionlab.diffusion import (
 )
 from motionlab.diffusion.pipeline import MODEL_NAME, cache_extra
 from motionlab.representation import Normalizer
-from motionlab.text import Vocabulary
+from motionlab.text import Vocabulary, WordTextEncoder
 from motionlab.tokenizers import VQVAE, vq_config
 from motionlab.train import artefact_dir, is_trained
 from motionlab.train.checkpoint import load_weights, save_weights
@@ -389,3 +389,36 @@ def test_decode_with_another_decoder_and_reconstruct(pipe):
     assert all(np.array_equal(m, np.ones_like(m)) for m in motions)  # denormalised with mean 0, std 1
     recon = pipe.reconstruct([np.zeros((13, 263), np.float32), np.zeros((8, 263), np.float32)])
     assert [r.shape for r in recon] == [(12, 263), (8, 263)]
+
+
+def token_batch_item_by_item(batches, generator):
+    """The per-row path the gather replaced: crop and pad each drawn clip in a Python loop."""
+    B = batches.batch_size
+    clips = torch.randint(len(batches.sequences), (B,), generator=generator)
+    u = torch.rand(B, 2, generator=generator)
+    crops = []
+    for b, c in enumerate(clips.tolist()):
+        seq = batches.sequences[c]
+        keep = min(seq.numel(), batches.max_tokens)
+        start = int(u[b, 0] * (seq.numel() - keep + 1))
+        crops.append(seq[start : start + keep])
+    L = max(c.numel() for c in crops)
+    ids, padding = torch.zeros(B, L, dtype=torch.long), torch.ones(B, L, dtype=torch.bool)
+    for b, crop in enumerate(crops):
+        ids[b, : crop.numel()], padding[b, : crop.numel()] = crop, False
+    caption = batches.first_caption[clips] + (u[:, 1] * batches.n_captions[clips]).long()
+    return {"ids": ids, "padding_mask": padding, "caption": caption}
+
+
+def test_token_batches_gather_what_the_per_row_path_built_and_tokenize_captions_once():
+    rng = np.random.default_rng(0)
+    seqs = [torch.from_numpy(rng.integers(0, 50, size=n)) for n in (3, 20, 7, 49, 60, 1, 12)]
+    caps = [[f"clip {i} caption {k} " + "word " * int(rng.integers(0, 9)) for k in range(i % 3 + 1)] for i in range(7)]
+    encoder = WordTextEncoder.from_captions([t for c in caps for t in c], dim=8, n_layers=1, n_heads=2)
+    batches = TokenBatches(seqs, caps, batch_size=96, max_tokens=16, tokenize=encoder.tokenize)
+    for seed in range(6):
+        batch = batches(seed, torch.Generator().manual_seed(seed))
+        expected = token_batch_item_by_item(batches, torch.Generator().manual_seed(seed))
+        assert all(torch.equal(batch[k], expected[k]) for k in expected)
+        ids, pad = encoder.tokenize([batches.texts[int(i)] for i in batch["caption"]])
+        assert torch.equal(batch["text_ids"], ids) and torch.equal(batch["text_padding_mask"], pad)

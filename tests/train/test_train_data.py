@@ -70,3 +70,41 @@ def test_device_and_seed(monkeypatch):
     assert torch.equal(torch.rand(4, generator=g1), torch.rand(4, generator=g2))
     with pytest.raises(ValueError):
         seed_everything(-1)
+
+
+def per_item_windows(clips, window, batch_size, generator):
+    """The per-item path the gather replaced: find each drawn window's clip and slice it, one at a time."""
+    kept = [torch.as_tensor(c) for c in clips if len(c) >= window]
+    counts = torch.tensor([c.shape[0] - window + 1 for c in kept])
+    offsets = torch.cumsum(counts, 0) - counts
+    idx = torch.randint(int(counts.sum()), (batch_size,), generator=generator)
+    out = []
+    for i in idx.tolist():
+        clip = int(torch.searchsorted(offsets, torch.tensor(i), right=True)) - 1
+        start = i - int(offsets[clip])
+        out.append(kept[clip][start : start + window])
+    return torch.stack(out)
+
+
+def test_batches_are_one_gather_with_the_same_draws_as_the_per_item_path():
+    rng = np.random.default_rng(3)
+    clips = [rng.normal(size=(n, 7)).astype(np.float32) for n in (40, 12, 9, 64, 16, 33)]
+    data = WindowDataset(clips, window=16)
+    for seed in range(5):
+        expected = per_item_windows(clips, 16, 256, torch.Generator().manual_seed(seed))
+        assert torch.equal(data.sample(256, torch.Generator().manual_seed(seed)), expected)
+    for i in range(len(data)):  # the table agrees with indexing one window
+        assert torch.equal(data[i], data.frames[data.window_starts[i] : data.window_starts[i] + 16])
+    assert [c.shape[0] for c in data.clips] == [40, 64, 16, 33]
+
+
+def test_window_batches_move_with_the_dataset_and_reject_nan():
+    data = WindowDataset(clips_of([10, 6]), window=4)
+    batches = data.batches(3)
+    assert batches.to("cpu") is batches and data.device == torch.device("cpu")
+    with pytest.raises(ValueError, match="batch_size"):
+        data.batches(0)
+    bad = clips_of([10])
+    bad[0][3, 2] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        WindowDataset(bad, window=4)

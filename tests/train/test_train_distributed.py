@@ -1,5 +1,6 @@
 """Data-parallel training: 2 CPU processes under torchrun (gloo) equal one process on the same global batch."""
 
+import os
 import subprocess
 import sys
 import textwrap
@@ -8,8 +9,8 @@ import pytest
 import torch
 from torch import nn
 
-from motionlab.train import TrainConfig, Trainer
-from motionlab.train.distributed import DistributedContext, shard_batch
+from motionlab.train import TrainConfig, Trainer, distributed
+from motionlab.train.distributed import DistributedContext, init_distributed, rank_device, shard_batch
 
 SCRIPT = textwrap.dedent(
     """
@@ -46,7 +47,8 @@ SCRIPT = textwrap.dedent(
 
 def torchrun(script, *args):
     cmd = [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node", "2", str(script), *args]
-    done = subprocess.run(cmd, capture_output=True, text=True, timeout=240)
+    env = {**os.environ, "MOTIONLAB_DEVICE": "cpu"}  # gloo ranks on the CPU, whatever the machine has
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=240, env=env)
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-4000:]
 
 
@@ -71,6 +73,7 @@ def test_two_ranks_match_one_process_and_resume(tmp_path):
         ddp_script.batch_fn,
         TrainConfig(steps=6, lr=1e-2, grad_clip=1.0, ema_decay=0.9),
         progress=False,
+        device="cpu",
     )
     single.fit()
     for name, value in single.model.state_dict().items():
@@ -98,3 +101,30 @@ def test_single_process_context_changes_nothing():
     )
     assert not trainer.dist.enabled and trainer.dist.is_main
     trainer.fit()
+
+
+def test_each_rank_takes_its_own_gpu_and_the_cpu_when_asked(monkeypatch):
+    monkeypatch.delenv("MOTIONLAB_DEVICE", raising=False)
+    second = DistributedContext(rank=1, world_size=2, local_rank=1)
+    assert rank_device(DistributedContext(), None) is None  # one process: the default choice
+    assert rank_device(second, "cuda") == "cuda:1" and rank_device(second, "cpu") == "cpu"
+    monkeypatch.setenv("MOTIONLAB_DEVICE", "cpu")
+    assert rank_device(second) == "cpu"
+
+
+def test_more_ranks_than_gpus_fail_at_start_in_one_line(monkeypatch):
+    joined = []
+    monkeypatch.setattr(distributed.dist, "init_process_group", lambda backend: joined.append(backend))
+    monkeypatch.setattr(distributed.dist, "is_initialized", lambda: False)
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: True)
+    monkeypatch.setattr(torch.cuda, "device_count", lambda: 1)
+    monkeypatch.delenv("MOTIONLAB_DEVICE", raising=False)
+    for name, value in {"WORLD_SIZE": "2", "LOCAL_WORLD_SIZE": "2", "RANK": "1", "LOCAL_RANK": "1"}.items():
+        monkeypatch.setenv(name, value)
+    with pytest.raises(
+        ValueError, match=r"2 processes .* 1 GPU\(s\): use --nproc_per_node 1, or set MOTIONLAB_DEVICE=cpu"
+    ):
+        init_distributed()
+    assert joined == []
+    init_distributed(device="cpu")  # the same ranks on the CPU join with gloo
+    assert joined == ["gloo"]

@@ -177,3 +177,84 @@ def test_periodic_checkpoints_and_validation(tmp_path):
     assert [p.name for p in list_checkpoints(tmp_path)] == ["step_00000008", "step_00000012"]
     assert calls == [False, False]  # validated twice, in eval mode
     assert [r["step"] for r in history if "val_mse" in r] == [6, 12]
+
+
+def test_a_non_finite_loss_stops_training_at_the_next_log_line_naming_its_step(tmp_path):
+    def nan_from_step_3(model, batch, generator):
+        loss = noisy_mse(model, batch, generator)["loss"]
+        return {"loss": loss * float("nan") if trainer.step >= 3 else loss}
+
+    trainer = Trainer(make_model(), nan_from_step_3, regression_batch, config(log_every=5), workdir=tmp_path)
+    with pytest.raises(FloatingPointError, match="at step 3"):
+        trainer.fit()
+    assert trainer.step == 5  # found when the step-5 log line reads the sums
+    assert latest_checkpoint(tmp_path) is None  # nothing a NaN has touched is saved
+
+
+def test_logged_terms_stay_on_the_device_until_a_log_line():
+    trainer = Trainer(make_model(), noisy_mse, regression_batch, config(), progress=False)
+    logged = trainer.train_step()
+    assert set(logged) == {"loss", "abs_err", "grad_norm"}
+    assert all(torch.is_tensor(v) and v.ndim == 0 and not v.requires_grad for v in logged.values())
+
+
+def test_a_batch_source_with_to_is_moved_to_the_training_device_once():
+    moved = []
+
+    class Source:
+        def to(self, device):
+            moved.append(torch.device(device))
+            return self
+
+        def __call__(self, step, generator):
+            return regression_batch(step, generator)
+
+    Trainer(make_model(), noisy_mse, Source(), config(steps=3), progress=False, device="cpu").fit()
+    assert moved == [torch.device("cpu")]
+
+
+def test_the_optimizer_is_torchs_adamw_bit_for_bit_without_reading_step_counters():
+    from motionlab.train.optim import AdamW
+
+    def run(make_optimizer, steps=12, reload_at=5):
+        model = make_model()
+        torch.manual_seed(0)  # the model's dropout draws from the global RNG
+        opt = make_optimizer(model.parameters())
+        generator = torch.Generator().manual_seed(0)
+        for step in range(steps):
+            x, y = regression_batch(step, generator)
+            opt.zero_grad()
+            ((model(x) - y) ** 2).mean().backward()
+            opt.step()
+            if step == reload_at:  # a checkpoint round trip mid-run
+                state = opt.state_dict()
+                opt = make_optimizer(model.parameters())
+                opt.load_state_dict(state)
+        return [p.detach().clone() for p in model.parameters()], opt.state_dict()
+
+    options = dict(lr=3e-2, betas=(0.9, 0.99), weight_decay=0.05)
+    ours, our_state = run(lambda params: AdamW(params, **options))
+    torchs, torch_state = run(lambda params: torch.optim.AdamW(params, foreach=False, **options))
+    assert all(torch.equal(a, b) for a, b in zip(ours, torchs))
+    for a, b in zip(our_state["state"].values(), torch_state["state"].values()):
+        assert all(torch.equal(a[k], b[k]) for k in ("step", "exp_avg", "exp_avg_sq"))
+
+
+def test_the_ema_update_is_the_per_tensor_lerp_bit_for_bit():
+    model = make_model()
+    model.register_buffer("count", torch.tensor(3))
+    ema = EMA(model, decay=0.97)
+    expected = {k: v.clone() for k, v in ema.shadow.items()}
+    generator = torch.Generator().manual_seed(0)
+    for _ in range(5):
+        with torch.no_grad():
+            for p in model.parameters():
+                p.add_(torch.randn(p.shape, generator=generator))
+            model.count += 1
+        ema.update(model)
+        for name, value in model.state_dict().items():
+            if value.is_floating_point():
+                expected[name].lerp_(value, 1.0 - 0.97)
+            else:
+                expected[name].copy_(value)
+    assert all(torch.equal(ema.shadow[k], expected[k]) for k in expected)

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import torch
 from torch import Tensor, nn
 
+from motionlab.checks import values_checked
 from motionlab.diffusion.posterior import LOG_FLOOR, log_p_posterior, log_q_posterior, q_sample
 from motionlab.diffusion.transitions import Transitions
 from motionlab.precision import in_fp32
@@ -50,7 +51,7 @@ def vb_terms(log_p_x0: Tensor, x0: Tensor, x_t: Tensor, t: Tensor, transitions: 
         log_p_x0: (B, L, K) network output log p_θ(x_0 | x_t).
         x0, x_t: (B, L) ids; t: (B,) steps in [1, T].
     """
-    if t.ndim != 1 or t.shape[0] != x0.shape[0] or t.min() < 1 or t.max() > transitions.T:
+    if t.ndim != 1 or t.shape[0] != x0.shape[0] or (values_checked(t) and (t.min() < 1 or t.max() > transitions.T)):
         raise ValueError(f"t must be (B,) with values in [1, {transitions.T}], got {tuple(t.shape)}")
     t = t.to(transitions.one_step.device)
     step, cum_prev, cum_t = transitions.one_step[t], transitions.cumulative[t - 1], transitions.cumulative[t]
@@ -66,7 +67,7 @@ def _check_diffusion_loss_inputs(x0: Tensor, padding_mask: Tensor | None, K: int
     """Reject ``x0`` that is not a non-empty ``(B, L)`` tensor of ids in ``[0, K)`` and a mismatched mask."""
     if x0.ndim != 2 or x0.dtype != torch.long or x0.numel() == 0:
         raise ValueError(f"x0 must be a non-empty (B, L) long tensor, got {tuple(x0.shape)} {x0.dtype}")
-    if x0.min() < 0 or x0.max() >= K:
+    if values_checked(x0) and (x0.min() < 0 or x0.max() >= K):
         raise ValueError(f"x0 must hold code ids in [0, {K}), got range [{x0.min()}, {x0.max()}]")
     if padding_mask is not None and padding_mask.shape != x0.shape:
         raise ValueError(f"padding_mask must be (B, L) = {tuple(x0.shape)}, got {tuple(padding_mask.shape)}")

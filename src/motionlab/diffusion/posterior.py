@@ -23,6 +23,7 @@ import math
 import torch
 from torch import Tensor
 
+from motionlab.checks import values_checked
 from motionlab.precision import in_fp32
 
 LOG_FLOOR = -70.0
@@ -62,7 +63,7 @@ def _columns(M: Tensor, idx: Tensor, upto: int | None = None) -> Tensor:
 def _check_tokens(x: Tensor, name: str, n_states: int) -> None:
     if x.ndim != 2 or x.dtype != torch.long:
         raise ValueError(f"{name} must be a (B, L) long tensor, got {tuple(x.shape)} {x.dtype}")
-    if x.numel() and (x.min() < 0 or x.max() >= n_states):
+    if x.numel() and values_checked(x) and (x.min() < 0 or x.max() >= n_states):
         raise ValueError(f"{name} must hold ids in [0, {n_states}), got range [{x.min()}, {x.max()}]")
 
 

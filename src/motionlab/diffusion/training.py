@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, fields, replace
 
 import numpy as np
@@ -34,6 +34,7 @@ from motionlab.profiles import get_profile
 from motionlab.sizes import DIFFUSION_TRAINING, WORD_ENCODER, resized
 from motionlab.text import Vocabulary, WordTextEncoder
 from motionlab.train import TrainConfig, Trainer
+from motionlab.train.compiling import compile_for_training
 
 PAPER_ETA = 0.5  # M2D2M appendix A.1: η for single-motion generation (0.25 for multi-motion)
 
@@ -225,10 +226,21 @@ class TokenBatches:
     ``caption`` indexes :attr:`texts`, a flat list of every caption (tensors only, so batches shard across
     processes). Clips are drawn uniformly with replacement, a caption uniformly among the clip's, and a crop
     of ``min(len, max_tokens)`` tokens at a uniform start. Padding holds code 0 (never read: it is masked).
+
+    With ``tokenize`` (a text encoder's ``texts -> (ids, padding_mask)``) every caption is tokenized once, here,
+    and batches also carry ``"text_ids"`` and ``"text_padding_mask"`` ``(B, S)``, S the longest caption drawn.
+
+    The draws come from the (CPU) data generator; which rows to take is worked out on the host from them, and the
+    tokens are gathered in one indexing operation where the tables live (``to(device)`` moves them, once).
     """
 
     def __init__(
-        self, sequences: Sequence[Tensor], captions: Sequence[Sequence[str]], batch_size: int, max_tokens: int
+        self,
+        sequences: Sequence[Tensor],
+        captions: Sequence[Sequence[str]],
+        batch_size: int,
+        max_tokens: int,
+        tokenize: Callable[[Sequence[str]], tuple[Tensor, Tensor]] | None = None,
     ) -> None:
         if len(sequences) == 0 or len(sequences) != len(captions):
             raise ValueError(f"need as many caption lists as sequences (> 0), got {len(sequences)} and {len(captions)}")
@@ -243,24 +255,53 @@ class TokenBatches:
         counts = torch.tensor([len(c) for c in captions])
         self.first_caption, self.n_captions = torch.cumsum(counts, 0) - counts, counts
         self.batch_size, self.max_tokens = batch_size, max_tokens
+        # host-side tables for working out a batch's rows, device-side tables to gather them from
+        self._lengths = np.array([s.numel() for s in self.sequences], dtype=np.int64)
+        self._row_width = int(self._lengths.max())
+        self._tokens = torch.zeros(len(self.sequences), self._row_width, dtype=torch.long)  # (N, longest), 0-padded
+        for i, seq in enumerate(self.sequences):
+            self._tokens[i, : seq.numel()] = seq
+        self._first_caption, self._n_captions = self.first_caption.numpy(), counts.numpy().astype(np.float32)
+        self._text_ids: Tensor | None = None
+        if tokenize is not None:
+            self._text_ids, text_padding = tokenize(self.texts)  # (n_texts, longest caption)
+            self._text_lengths = (~text_padding).sum(dim=1).numpy()
+
+    def to(self, device: str | torch.device) -> TokenBatches:
+        """Keep the token (and caption) tables on ``device``; returns ``self``."""
+        self._tokens = self._tokens.to(device)
+        if self._text_ids is not None:
+            self._text_ids = self._text_ids.to(device)
+        return self
 
     def __call__(self, step: int, generator: torch.Generator) -> dict[str, Tensor]:
         B = self.batch_size
         clips = torch.randint(len(self.sequences), (B,), generator=generator)
         u = torch.rand(B, 2, generator=generator)  # crop start and caption choice
-        crops = []
-        for b, c in enumerate(clips.tolist()):
-            seq = self.sequences[c]
-            keep = min(seq.numel(), self.max_tokens)
-            start = int(u[b, 0] * (seq.numel() - keep + 1))
-            crops.append(seq[start : start + keep])
-        L = max(c.numel() for c in crops)
-        ids = torch.zeros(B, L, dtype=torch.long)
-        padding = torch.ones(B, L, dtype=torch.bool)
-        for b, crop in enumerate(crops):
-            ids[b, : crop.numel()], padding[b, : crop.numel()] = crop, False
-        caption = self.first_caption[clips] + (u[:, 1] * self.n_captions[clips]).long()
-        return {"ids": ids, "padding_mask": padding, "caption": caption}
+        # The crop of each row, on the host: the same float32 arithmetic as indexing each clip in turn.
+        c, u = clips.numpy(), u.numpy()
+        n = self._lengths[c]
+        keep = np.minimum(n, self.max_tokens)
+        start = (u[:, 0] * (n - keep + 1).astype(np.float32)).astype(np.int64)
+        L = int(keep.max())
+        offsets = np.arange(L)
+        padding = offsets[None, :] >= keep[:, None]  # (B, L)
+        flat = np.where(padding, 0, c[:, None] * self._row_width + start[:, None] + offsets[None, :])
+        caption = self._first_caption[c] + (u[:, 1] * self._n_captions[c]).astype(np.int64)
+        device = self._tokens.device
+        ids = self._tokens.view(-1)[_to(flat, device)]  # (B, L): one gather
+        ids = ids.masked_fill(_to(padding, device), 0)
+        batch = {"ids": ids, "padding_mask": _to(padding, device), "caption": torch.from_numpy(caption)}
+        if self._text_ids is not None:
+            S = int(self._text_lengths[caption].max())
+            text_ids = self._text_ids[_to(caption, device), :S]  # (B, S)
+            batch.update(text_ids=text_ids, text_padding_mask=text_ids == 0)
+        return batch
+
+
+def _to(array: np.ndarray, device: torch.device) -> Tensor:
+    """A host array as a tensor on ``device`` (an asynchronous copy: the host does not wait for the device)."""
+    return torch.from_numpy(array).to(device, non_blocking=True)
 
 
 # ------------------------------------------------------------------------------------------ the training
@@ -271,8 +312,11 @@ def diffusion_loss_fn(transitions: Transitions, texts: Sequence[str], config: Di
     t = config.transformer
 
     def loss_fn(model: TextToMotionNetworks, batch: dict[str, Tensor], generator: torch.Generator) -> dict:
-        captions = [texts[i] for i in batch["caption"].tolist()]
-        text = model.text_encoder.encode(captions)  # tokens (B, S, text_dim), padding_mask (B, S)
+        if "text_ids" in batch:  # tokenized once by the batch source
+            text = model.text_encoder.encode_tokens(batch["text_ids"], batch["text_padding_mask"])
+        else:
+            text = model.text_encoder.encode([texts[i] for i in batch["caption"].tolist()])
+        # text: tokens (B, S, text_dim), padding_mask (B, S)
         out = diffusion_loss(
             model.denoiser,
             transitions,
@@ -336,7 +380,9 @@ def text_to_motion_trainer(
     K = config.transformer.num_codes
     if any(int(s.min()) < 0 or int(s.max()) >= K for s in sequences if s.numel()):
         raise ValueError(f"token sequences must hold code ids in [0, {K})")
-    batches = TokenBatches(sequences, captions, config.transformer.batch_size, config.max_tokens)
+    batches = TokenBatches(
+        sequences, captions, config.transformer.batch_size, config.max_tokens, tokenize=networks.text_encoder.tokenize
+    )
     train = optimisation(config, len(sequences))
     trainer = Trainer(
         networks,
@@ -350,6 +396,7 @@ def text_to_motion_trainer(
         precision=precision,
     )
     transitions.to(trainer.device)
+    compile_for_training([networks.denoiser], "denoiser", trainer.device)  # the run's --compile setting
     return trainer
 
 

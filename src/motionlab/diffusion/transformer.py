@@ -33,6 +33,7 @@ import torch
 import torch.nn.functional as F
 from torch import Tensor, nn
 
+from motionlab.checks import values_checked
 from motionlab.precision import attention_kernel
 from motionlab.sizes import DENOISER, resized
 
@@ -278,12 +279,12 @@ class DenoisingTransformer(nn.Module):
         if not torch.is_tensor(x_t) or x_t.ndim != 2 or x_t.dtype != torch.long:
             raise ValueError(f"x_t must be a (B, L) long tensor, got {getattr(x_t, 'shape', type(x_t))}")
         B, L = x_t.shape
-        if x_t.numel() and (x_t.min() < 0 or x_t.max() > K):
+        if x_t.numel() and values_checked(x_t) and (x_t.min() < 0 or x_t.max() > K):
             raise ValueError(f"x_t ids must be in [0, {K}] (K = mask), got [{x_t.min()}, {x_t.max()}]")
         if torch.is_tensor(t) and t.ndim > 0 and t.shape != (B,):
             raise ValueError(f"t must be (B,) = ({B},) or a scalar, got {tuple(t.shape)}")
         t_val = torch.as_tensor(t)
-        if t_val.numel() and (t_val.min() < 0 or t_val.max() > self.cfg.timesteps):
+        if t_val.numel() and values_checked(t_val) and (t_val.min() < 0 or t_val.max() > self.cfg.timesteps):
             raise ValueError(f"t must be in [0, {self.cfg.timesteps}]")
         if not torch.is_tensor(text) or text.ndim != 3 or text.shape[0] != B or text.shape[2] != self.cfg.text_dim:
             raise ValueError(f"text must be (B={B}, S, {self.cfg.text_dim}), got {getattr(text, 'shape', None)}")

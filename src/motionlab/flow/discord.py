@@ -173,17 +173,19 @@ class DisCoRDDecoder(nn.Module):
         ``steps`` integration intervals of ``solver`` on the config's grid (defaults from the config: for
         ``full`` 15 midpoint intervals = the public code's 16-point grid). The start noise is
         ``temperature · N(0, I)`` (default: the config's; the paper's 1). Pass ``generator`` or ``seed``
-        (default seed 0): the same seed gives the same motion.
+        (default seed 0): the same seed gives the same motion. A seed's noise is drawn where the decoder lives (on a
+        GPU, from a GPU generator: no host work per call), so a seed's motion on a GPU differs from the CPU's; a
+        ``generator`` draws on its own device. The motion is returned on the decoder's device.
         """
         cfg = self.config
         steps = cfg.sample_steps if steps is None else steps
         solver = cfg.solver if solver is None else solver
         temperature = cfg.temperature if temperature is None else check_temperature(temperature)
-        generator = _resolve_generator(generator, seed)
+        param = next(self.parameters())
+        generator = _resolve_generator(generator, seed, param.device)
         if not isinstance(code_vectors, Tensor) or code_vectors.dim() != 3 or code_vectors.shape[-1] != cfg.code_dim:
             raise ValueError(f"code_vectors must have shape (B, N, {cfg.code_dim}), got {_shape(code_vectors)}")
         B, N, _ = code_vectors.shape
-        param = next(self.parameters())
         code_vectors = code_vectors.to(device=param.device, dtype=param.dtype)
 
         was_training = self.training
@@ -223,7 +225,9 @@ class DisCoRDDecoder(nn.Module):
     ) -> Tensor:
         """Token ids ``(B, N)`` (VQ) or ``(B, N, R)`` (RVQ, −1 = absent layer) -> motion ``(B, q·N, D)``.
 
-        Uses ``tokenizer`` if given, else the one from :meth:`attach`; only its ``embed`` is called.
+        Uses ``tokenizer`` if given, else the one from :meth:`attach`; only its ``embed`` is called. The ids may live
+        on any device (their range is checked where that reads nothing back: on the CPU); the motion is returned on
+        the decoder's device.
         """
         tokenizer = tokenizer if tokenizer is not None else self.tokenizer
         self._check_decode_inputs(ids, tokenizer)
@@ -271,12 +275,15 @@ def discord_loss_fn(model: DisCoRDDecoder, batch: tuple[Tensor, Tensor], generat
     return {"loss": model.loss(motion, code_vectors, generator)}
 
 
-def _resolve_generator(generator: torch.Generator | None, seed: int | None) -> torch.Generator:
+def _resolve_generator(
+    generator: torch.Generator | None, seed: int | None, device: torch.device | str = "cpu"
+) -> torch.Generator:
+    """``generator``, or a new one on ``device`` seeded with ``seed`` (default 0)."""
     if generator is not None and seed is not None:
         raise ValueError("pass either generator or seed, not both")
     if generator is not None:
         return generator
-    return torch.Generator().manual_seed(0 if seed is None else int(seed))
+    return torch.Generator(device=device).manual_seed(0 if seed is None else int(seed))
 
 
 def _shape(x: Any) -> str:

@@ -161,7 +161,11 @@ def toy_flow_loss_fn(model: ToyVelocityMLP, batch: tuple[Tensor, Tensor], genera
 def train_toy_flow(
     model: ToyVelocityMLP, workdir: str | Path | None = None, progress: bool = True
 ) -> list[dict[str, float]]:
-    """Train ``model`` on fresh toy samples every step (the data is infinite); returns the logged history."""
+    """Train ``model`` on fresh toy samples every step (the data is infinite); returns the logged history.
+
+    Always on the CPU, whatever devices the machine has: the network is a 2 × 64 MLP whose step a GPU would only
+    slow down with launches and copies, and the trained field stays where the chapter's samples are drawn.
+    """
     cfg = model.config
 
     def batch_fn(step: int, generator: torch.Generator) -> tuple[Tensor, Tensor]:
@@ -173,6 +177,7 @@ def train_toy_flow(
         batch_fn,
         cfg.train_config(),
         workdir=workdir,
+        device="cpu",
         desc=f"toy flow ({cfg.distribution})",
         progress=progress,
     )

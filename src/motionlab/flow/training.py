@@ -29,6 +29,7 @@ from motionlab.flow.discord import DisCoRDDecoder, discord_loss_fn
 from motionlab.profiles import get_profile
 from motionlab.train import Trainer, WindowDataset, load_result, train_or_load
 from motionlab.train.cache import artefact_key
+from motionlab.train.compiling import compile_for_training
 
 MODEL_NAME = "discord"
 Clips = Sequence[np.ndarray]
@@ -46,16 +47,31 @@ def code_vectors(tokenizer: Any, motion: Tensor) -> Tensor:
     return tokenizer.embed(tokenizer.encode(motion)).detach()
 
 
-def token_window_batches(windows: WindowDataset, tokenizer: Any, batch_size: int) -> Callable:
+class TokenWindowBatches:
+    """``batch_fn(step, generator) -> (motion (B, W, D), code vectors (B, W/q, d))`` for the trainer.
+
+    ``to(device)`` moves the windows and the frozen tokenizer there, so windows are gathered and encoded on the
+    training device (no copy of the batch at each step).
+    """
+
+    def __init__(self, windows: WindowDataset, tokenizer: Any, batch_size: int) -> None:
+        if batch_size < 1:
+            raise ValueError(f"batch_size must be >= 1, got {batch_size}")
+        self.windows, self.tokenizer, self.batch_size = windows, tokenizer, batch_size
+
+    def to(self, device: str | torch.device) -> TokenWindowBatches:
+        self.windows.to(device)
+        self.tokenizer.to(device)
+        return self
+
+    def __call__(self, step: int, generator: torch.Generator) -> tuple[Tensor, Tensor]:
+        motion = self.windows.sample(self.batch_size, generator)  # (B, W, D), where the windows live
+        return motion, code_vectors(self.tokenizer, motion)
+
+
+def token_window_batches(windows: WindowDataset, tokenizer: Any, batch_size: int) -> TokenWindowBatches:
     """A ``batch_fn(step, generator) -> (motion (B, W, D), code vectors (B, W/q, d))`` for the trainer."""
-    if batch_size < 1:
-        raise ValueError(f"batch_size must be >= 1, got {batch_size}")
-
-    def batch_fn(step: int, generator: torch.Generator) -> tuple[Tensor, Tensor]:
-        motion = windows.sample(batch_size, generator)  # (B, W, D), on the CPU
-        return motion, code_vectors(tokenizer, motion).cpu()  # the trainer moves both to its device
-
-    return batch_fn
+    return TokenWindowBatches(windows, tokenizer, batch_size)
 
 
 def flow_validation(tokenizer: Any, clips: Clips, window: int, n_windows: int = 64, seed: int = 0) -> Callable:
@@ -139,7 +155,7 @@ def discord_trainer(
         log_every=max(1, cfg.train_steps // 100),
         val_every=max(1, cfg.train_steps // 10) if val_fn else 0,
     )
-    return Trainer(
+    trainer = Trainer(
         model,
         discord_loss_fn,
         token_window_batches(windows, tokenizer, cfg.batch_size),
@@ -151,6 +167,8 @@ def discord_trainer(
         progress=progress,
         precision=precision,
     )
+    compile_for_training([model.unet], "discord", trainer.device)  # the run's --compile setting
+    return trainer
 
 
 def train_discord(

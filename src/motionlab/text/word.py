@@ -110,8 +110,13 @@ class WordTextEncoder(nn.Module, TextEncoder):
         return out, out == 0
 
     def encode(self, texts: Sequence[str]) -> TextFeatures:
+        return self.encode_tokens(*self.tokenize(texts))
+
+    def encode_tokens(self, ids: Tensor, pad: Tensor) -> TextFeatures:
+        """Features of already tokenized texts: ``ids`` and ``pad`` ``(B, S)`` as :meth:`tokenize` returns them
+        (moved to the encoder's device). A training loop tokenizes its captions once and calls this per batch."""
         device = self.embed.weight.device
-        ids, pad = (x.to(device) for x in self.tokenize(texts))  # (B, S)
+        ids, pad = ids.to(device), pad.to(device)  # (B, S)
         h = self.embed(ids) + self.pos(torch.arange(ids.shape[1], device=device))[None]  # (B, S, dim)
         with attention_kernel(device):  # plain-matmul attention when training in CPU bf16 (motionlab.precision)
             h = self.norm(self.layers(h, src_key_padding_mask=pad))

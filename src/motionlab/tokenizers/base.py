@@ -19,6 +19,8 @@ from typing import Protocol, runtime_checkable
 import numpy as np
 import torch
 
+from ..checks import values_checked
+
 
 @runtime_checkable
 class Tokenizer(Protocol):
@@ -65,7 +67,7 @@ def check_motion(motion, feature_dim: int, downsample: int = 4, name: str = "mot
         raise ValueError(f"{name} must hold real numbers, got dtype {motion.dtype}")
     if motion.dtype != torch.float32:
         motion = motion.float()  # the networks' weights are float32
-    if not torch.isfinite(motion).all():
+    if values_checked(motion) and not torch.isfinite(motion).all():
         raise ValueError(f"{name} contains NaN or inf values")
     return motion
 
@@ -87,7 +89,7 @@ def check_ids(ids, codebook_size: int, num_layers: int | None = None, name: str 
         low = -1
     if ids.shape[0] == 0 or ids.shape[1] == 0:
         raise ValueError(f"{name} must hold at least one token per sequence, got shape {tuple(ids.shape)}")
-    if ids.numel() and (int(ids.min()) < low or int(ids.max()) >= codebook_size):
+    if ids.numel() and values_checked(ids) and (int(ids.min()) < low or int(ids.max()) >= codebook_size):
         raise ValueError(
             f"{name} must lie in [{low}, {codebook_size}), got values in [{int(ids.min())}, {int(ids.max())}]"
         )

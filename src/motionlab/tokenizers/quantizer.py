@@ -76,6 +76,7 @@ class QuantizerEMAReset(nn.Module):
         self.register_buffer("code_sum", init.clone())  # (K, C) EMA of summed assigned vectors
         self.register_buffer("code_count", torch.ones(codebook_size))  # (K,) EMA of assignment counts
         self.register_buffer("initialized", torch.tensor(False))
+        self._initialized_on_host: bool | None = None  # None: not read yet (read once, at the first training step)
 
     # -- pure lookups (no state change) -------------------------------------------------------------------------
     def distances(self, x: torch.Tensor) -> torch.Tensor:
@@ -110,18 +111,32 @@ class QuantizerEMAReset(nn.Module):
         self.code_sum.copy_(rows)
         self.code_count.fill_(1.0)
         self.initialized.fill_(True)
+        self._initialized_on_host = True
+
+    def _is_initialized(self) -> bool:
+        """The ``initialized`` flag, read from the buffer once and then remembered on the host."""
+        if self._initialized_on_host is None:
+            self._initialized_on_host = bool(self.initialized)
+        return self._initialized_on_host
+
+    def _load_from_state_dict(self, *args, **kwargs) -> None:
+        super()._load_from_state_dict(*args, **kwargs)
+        self._initialized_on_host = None  # the loaded flag is read again at the next training step
 
     @torch.no_grad()
-    def ema_update(self, x: torch.Tensor, ids: torch.Tensor, generator: torch.Generator) -> int:
-        """EMA step from ``x (N, C)`` assigned to ``ids (N,)``, then dead-code reset; returns the number reset."""
-        onehot = F.one_hot(ids, self.codebook_size).type_as(x)  # (N, K)
+    def ema_update(self, x: torch.Tensor, ids: torch.Tensor, generator: torch.Generator) -> torch.Tensor:
+        """EMA step from ``x (N, C)`` assigned to ``ids (N,)``, then dead-code reset; returns how many codes were
+        reset (a 0-d tensor on the codebook's device: reading it waits for the device)."""
+        # one-hot rows by scatter: F.one_hot's range check would read ids back to the host at every step
+        onehot = torch.zeros(ids.shape[0], self.codebook_size, dtype=x.dtype, device=x.device)
+        onehot.scatter_(1, ids[:, None], 1.0)  # (N, K)
         self.code_count.mul_(self.decay).add_(onehot.sum(0), alpha=1 - self.decay)
         self.code_sum.mul_(self.decay).add_(onehot.t() @ x, alpha=1 - self.decay)
         alive = self.code_count >= self.reset_threshold  # (K,)
         means = self.code_sum / self.code_count.clamp_min(1e-12)[:, None]
         fresh = self._random_rows(x, self.codebook_size, generator)
         self.codebook.copy_(torch.where(alive[:, None], means, fresh))
-        return int((~alive).sum())
+        return (~alive).sum()
 
     # -- the layer ----------------------------------------------------------------------------------------------
     @in_fp32  # nearest-code search and codebook EMA stay exact under bf16 autocast
@@ -131,7 +146,7 @@ class QuantizerEMAReset(nn.Module):
         if self.training:
             gen = generator if generator is not None else fallback_generator(self, x.device)
             detached = flat.detach()
-            if not bool(self.initialized):
+            if not self._is_initialized():
                 self.init_codebook(detached, gen)
             if self.gumbel_temperature > 0:
                 # Gumbel-max: argmax(−d/τ + g), g ~ Gumbel(0, 1), samples k ∝ exp(−d_k/τ)

@@ -11,6 +11,7 @@ import torch
 import torch.nn.functional as F
 
 from ..train import Trainer, WindowDataset, load_trained, train_or_load
+from ..train.compiling import compile_for_training
 from .config import RVQConfig, VQConfig, rvq_config, vq_config
 from .losses import tokenizer_loss
 from .models import RVQVAE, VQVAE, ConvTokenizer, build_tokenizer
@@ -58,7 +59,7 @@ def tokenizer_trainer(
     if data.feature_dim != c.feature_dim:
         raise ValueError(f"train_clips have {data.feature_dim} features, the config expects {c.feature_dim}")
     val_fn = window_validation(model, val_clips) if val_clips is not None else None
-    return Trainer(
+    trainer = Trainer(
         model,
         tokenizer_loss_fn,
         data.batches(c.batch_size),
@@ -70,6 +71,9 @@ def tokenizer_trainer(
         progress=progress,
         precision=precision,
     )
+    # the convolutions only: the quantizer's codebook updates run in place, step by step, in fp32
+    compile_for_training([model.encoder, model.decoder], "tokenizer", trainer.device)
+    return trainer
 
 
 def train_tokenizer(

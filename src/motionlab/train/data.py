@@ -26,7 +26,10 @@ def _as_clip(clip, i: int, feature_dim: int | None) -> torch.Tensor:
 class WindowDataset:
     """All length-``window`` windows of ``clips`` (each ``(T, D)``, normalised); shorter clips are skipped.
 
-    A clip of T frames has T − window + 1 windows (MoMask's loader counts T − window, one fewer).
+    A clip of T frames has T − window + 1 windows (MoMask's loader counts T − window, one fewer). The kept clips
+    are stored end to end in one ``(F, D)`` tensor, ``frames``, with the first frame of every window in
+    ``window_starts``, so a batch of windows is one gather; :meth:`to` moves both to a device once (the trainer
+    does this for a GPU run), after which batches are built there.
     """
 
     def __init__(self, clips: Sequence[np.ndarray], window: int = 64):
@@ -38,35 +41,81 @@ class WindowDataset:
         all_clips = [_as_clip(c, i, dim) for i, c in enumerate(clips)]
         self.window = window
         self.feature_dim = dim
-        self.clips = [c for c in all_clips if c.shape[0] >= window]
-        self.skipped = len(all_clips) - len(self.clips)
-        if not self.clips:
+        kept = [c for c in all_clips if c.shape[0] >= window]
+        self.skipped = len(all_clips) - len(kept)
+        if not kept:
             longest = max(c.shape[0] for c in all_clips)
             raise ValueError(f"no clip is at least window={window} frames long (longest has {longest})")
-        counts = torch.tensor([c.shape[0] - window + 1 for c in self.clips])
-        self.offsets = torch.cumsum(counts, 0) - counts  # first flat index of each clip's windows
+        self.frames = torch.cat(kept)  # (F, D): every kept clip, end to end
+        if not torch.isfinite(self.frames).all():  # checked once here, so training steps need not
+            raise ValueError("clips contain NaN or inf values")
+        lengths = torch.tensor([c.shape[0] for c in kept])
+        counts = lengths - window + 1
+        self.offsets = torch.cumsum(counts, 0) - counts  # first flat window index of each clip
+        first_frame = torch.cumsum(lengths, 0) - lengths  # first row of each clip in `frames`
+        # window i of clip c starts at first_frame[c] + (i − offsets[c])
+        self.window_starts = torch.repeat_interleave(first_frame - self.offsets, counts) + torch.arange(
+            int(counts.sum())
+        )
+        self._length = int(counts.sum())
+        self._steps = torch.arange(window)  # (W,) frame offsets inside a window
+
+    @property
+    def clips(self) -> list[torch.Tensor]:
+        """The kept clips, each a ``(T, D)`` view of ``frames``."""
+        lengths = (self.offsets.diff(append=torch.tensor([self._length])) + self.window - 1).tolist()
+        return list(torch.split(self.frames, lengths))
+
+    @property
+    def device(self) -> torch.device:
+        return self.frames.device
+
+    def to(self, device: str | torch.device) -> WindowDataset:
+        """Keep the frames and the window table on ``device`` (in place); returns ``self``."""
+        self.frames, self.window_starts, self._steps = (
+            t.to(device) for t in (self.frames, self.window_starts, self._steps)
+        )
+        return self
 
     def __len__(self) -> int:
-        return int(self.offsets[-1]) + self.clips[-1].shape[0] - self.window + 1
+        return self._length
 
     def __getitem__(self, index: int) -> torch.Tensor:
         """The window with flat index ``index``: ``(window, D)``."""
         if not 0 <= index < len(self):
             raise IndexError(f"window index {index} out of range [0, {len(self)})")
-        clip = int(torch.searchsorted(self.offsets, torch.tensor(index), right=True)) - 1
-        start = index - int(self.offsets[clip])
-        return self.clips[clip][start : start + self.window]
+        start = int(self.window_starts[index])
+        return self.frames[start : start + self.window]
 
     def sample(self, batch_size: int, generator: torch.Generator) -> torch.Tensor:
-        """``batch_size`` windows drawn uniformly (with replacement) over all windows: ``(B, window, D)``."""
-        idx = torch.randint(len(self), (batch_size,), generator=generator)
-        return torch.stack([self[int(i)] for i in idx])
+        """``batch_size`` windows drawn uniformly (with replacement) over all windows: ``(B, window, D)`` on
+        :attr:`device`. The indices come from ``generator`` (on its own device), the gather runs on the frames'."""
+        idx = torch.randint(len(self), (batch_size,), generator=generator, device=generator.device)
+        rows = (
+            self.window_starts[idx.to(self.device, non_blocking=True)][:, None] + self._steps
+        )  # (B, W) rows of `frames`
+        return self.frames[rows]
 
-    def batches(self, batch_size: int):
+    def batches(self, batch_size: int) -> WindowBatches:
         """A ``batch_fn(step, generator)`` for :class:`motionlab.train.Trainer`."""
+        return WindowBatches(self, batch_size)
+
+
+class WindowBatches:
+    """``batch_fn(step, generator) -> (B, window, D)`` windows of a :class:`WindowDataset`; ``to(device)`` moves
+    the dataset, which is how the trainer gets the batches built on its device."""
+
+    def __init__(self, windows: WindowDataset, batch_size: int):
         if batch_size < 1:
             raise ValueError(f"batch_size must be >= 1, got {batch_size}")
-        return lambda step, generator: self.sample(batch_size, generator)
+        self.windows, self.batch_size = windows, batch_size
+
+    def to(self, device: str | torch.device) -> WindowBatches:
+        self.windows.to(device)
+        return self
+
+    def __call__(self, step: int, generator: torch.Generator) -> torch.Tensor:
+        return self.windows.sample(self.batch_size, generator)
 
 
 def crop_length(length: int, unit: int = 4) -> int:

@@ -47,19 +47,49 @@ def current_context() -> DistributedContext:
     return DistributedContext()
 
 
-def init_distributed(backend: str | None = None) -> DistributedContext:
+def rank_device(ctx: DistributedContext, device: str | torch.device | None = None) -> str | torch.device | None:
+    """The device a process trains on: ``device``, else ``$MOTIONLAB_DEVICE``, else None (the default choice).
+
+    Under torchrun each rank takes its own GPU: a bare ``cuda``, or no choice on a machine with CUDA, becomes
+    ``cuda:<local rank>``.
+    """
+    choice = device if device is not None else (os.environ.get("MOTIONLAB_DEVICE") or None)
+    if not ctx.enabled:
+        return choice
+    if choice is None:
+        choice = "cuda" if torch.cuda.is_available() else "cpu"
+    return f"cuda:{ctx.local_rank}" if str(choice) == "cuda" else choice
+
+
+def check_gpus_for_ranks(local_world_size: int) -> None:
+    """Refuse, in one line, more ranks on this machine than it has GPUs (each rank needs a GPU of its own)."""
+    gpus = torch.cuda.device_count()
+    if local_world_size > gpus:
+        raise ValueError(
+            f"torchrun started {local_world_size} processes on this machine but it has {gpus} GPU(s): "
+            f"use --nproc_per_node {max(gpus, 1)}, or set MOTIONLAB_DEVICE=cpu to run the ranks on the CPU (gloo)"
+        )
+
+
+def init_distributed(backend: str | None = None, device: str | None = None) -> DistributedContext:
     """Join the process group torchrun describes in the environment (``WORLD_SIZE``, ``RANK``, ...).
 
     Without those variables (a plain ``python`` run) nothing is initialised and a single-process context is
-    returned, so the same script runs both ways. ``backend`` defaults to nccl with CUDA, gloo otherwise.
+    returned, so the same script runs both ways. Ranks on GPUs (``device``, ``$MOTIONLAB_DEVICE``, else CUDA when
+    present) join with nccl, one GPU each; ranks on the CPU with gloo. ``backend`` overrides that choice.
     """
     if dist.is_initialized():
         return current_context()
     world = int(os.environ.get("WORLD_SIZE", "1"))
     if world <= 1:
         return DistributedContext()
-    backend = backend or ("nccl" if torch.cuda.is_available() else "gloo")
     local_rank = int(os.environ.get("LOCAL_RANK", "0"))
+    ranks_here = int(os.environ.get("LOCAL_WORLD_SIZE", world))
+    target = str(rank_device(DistributedContext(0, world, local_rank), device))
+    on_gpus = target.startswith("cuda")
+    if on_gpus:
+        check_gpus_for_ranks(ranks_here)
+    backend = backend or ("nccl" if on_gpus else "gloo")
     if backend == "nccl":
         torch.cuda.set_device(local_rank)
     dist.init_process_group(backend=backend)

@@ -25,12 +25,20 @@ class EMA:
 
     @torch.no_grad()
     def update(self, model: nn.Module) -> None:
+        averaged, values, copied, sources = [], [], [], []
         for name, value in model.state_dict().items():
-            avg = self.shadow[name]
             if value.is_floating_point():
-                avg.lerp_(value.detach(), 1.0 - self.decay)  # avg + (1 − d)(value − avg)
+                averaged.append(self.shadow[name])
+                values.append(value.detach())
             else:
-                avg.copy_(value)
+                copied.append(self.shadow[name])
+                sources.append(value)
+        # one multi-tensor call each (a few GPU launches instead of one per tensor); per tensor the same
+        # avg + (1 − d)(value − avg) as avg.lerp_(value, 1 − d)
+        if averaged:
+            torch._foreach_lerp_(averaged, values, 1.0 - self.decay)
+        if copied:
+            torch._foreach_copy_(copied, sources)
 
     @torch.no_grad()
     def copy_to(self, model: nn.Module) -> None:

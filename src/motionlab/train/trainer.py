@@ -3,13 +3,20 @@
 A model brings two functions and the loop does the rest (AdamW, warm-up schedule, clipping, EMA,
 progress bar, validation, checkpoints, resume):
 
-- ``batch_fn(step, generator) -> batch``: draws the batch for ``step`` from the *data* generator;
+- ``batch_fn(step, generator) -> batch``: draws the batch for ``step`` from the *data* generator (a CPU
+  generator, so the draws are the same on every device); a ``batch_fn`` with a ``to(device)`` method is moved to
+  the training device once;
 - ``loss_fn(model, batch, generator) -> {"loss": tensor, ...}``: any extra scalar terms are logged;
   ``generator`` is the *noise* generator (flow-matching noise, diffusion steps, code resets, ...).
 
 ``loss_fn`` runs inside the run's precision (:mod:`motionlab.precision`): under ``bf16`` the network's matrix
 products and convolutions run in bfloat16 while parameters, gradients, optimizer moments and EMA stay fp32;
 under ``fp32`` nothing is cast.
+
+A step never waits for the device: the logged terms (and the gradient norm) are summed on the device and read
+once per ``log_every`` steps, where the finite-loss check is read too (a non-finite loss stops training and names
+the step it first appeared at). Inside a step the library's per-call input checks skip reading tensor values
+(:func:`motionlab.checks.trusted_values`): batches come from data checked once, when it was loaded.
 
 Both generators are saved in every checkpoint together with the optimizer moments and torch's global
 RNG (which ``nn.Dropout`` reads; a fresh run seeds it from ``config.seed``), so training N steps in one
@@ -34,7 +41,9 @@ import torch
 from torch import nn
 from tqdm.auto import tqdm
 
+from ..checks import trusted_values
 from ..precision import autocast, resolve_precision
+from ..settings import env_deterministic, use_deterministic_kernels
 from .checkpoint import latest_checkpoint, load_checkpoint, prune_checkpoints, save_checkpoint
 from .device import get_device, to_device
 from .distributed import (
@@ -43,9 +52,11 @@ from .distributed import (
     barrier,
     current_context,
     gather_generator_states,
+    rank_device,
     shard_batch,
 )
 from .ema import EMA
+from .optim import AdamW
 from .progress import bars_enabled
 from .progress import report as report_progress
 from .schedules import SCHEDULES, lr_multiplier, set_lr
@@ -119,22 +130,27 @@ class Trainer:
         precision: str | None = None,
     ):
         self.config = config
+        if env_deterministic():  # the run asked for it (a worker process inherits the setting, not torch's flag)
+            use_deterministic_kernels(True)
         # Under torchrun every process holds one replica; see motionlab.train.distributed.
         self.dist = current_context()
-        if device is None and self.dist.enabled and torch.cuda.is_available():
-            device = f"cuda:{self.dist.local_rank}"
-        self.device = get_device(device)
+        self.device = get_device(rank_device(self.dist, device))
         self.model = model.to(self.device)
+        # A batch source that can live on a device (WindowDataset.batches, ...) moves there once, so its batches are
+        # built where the model trains instead of being copied there at every step.
+        if callable(getattr(batch_fn, "to", None)):
+            batch_fn.to(self.device)
         self.loss_fn, self.batch_fn, self.val_fn = loss_fn, batch_fn, val_fn
         self.workdir = Path(workdir) if workdir is not None else None
         self.desc, self.progress = desc, progress and self.dist.is_main
         # the run's precision unless given: bf16 autocasts the forward pass; parameters, optimizer state, EMA stay fp32
         self.precision = resolve_precision(precision, self.device)
         params = [p for p in self.model.parameters() if p.requires_grad]
-        # fused: one kernel for the whole update (measured faster); fp32 keeps the unfused update, bit for bit as before
-        fused = True if self.precision == "bf16" and self.device.type in ("cpu", "cuda") else None
-        self.optimizer = torch.optim.AdamW(
-            params, lr=config.lr, betas=config.betas, weight_decay=config.weight_decay, fused=fused
+        # fused: one kernel for the whole update (measured faster). fp32 on the CPU keeps the unfused update, bit for
+        # bit as before; on CUDA every precision takes the fused kernel (no per-parameter launches or step reads).
+        fused = self.device.type == "cuda" or (self.precision == "bf16" and self.device.type == "cpu")
+        self.optimizer = AdamW(
+            params, lr=config.lr, betas=config.betas, weight_decay=config.weight_decay, fused=fused or None
         )
         self.ema = EMA(self.model, config.ema_decay) if config.ema_decay else None
         # Two streams: data order stays the same when a model changes how much noise it draws.
@@ -144,8 +160,10 @@ class Trainer:
         self.step = 0
         self._saved_step: int | None = None
         self.history: list[dict[str, float]] = []
-        self._acc: dict[str, float] = {}  # running sums of logged terms since the last log line
+        # running sums of the logged terms since the last log line, in float64 on the device (read at log steps)
+        self._acc: dict[str, torch.Tensor] = {}
         self._acc_n = 0
+        self._first_nonfinite = self._no_nonfinite()  # (step, loss) of the first non-finite loss, on the device
         if self.workdir is not None and (ckpt := latest_checkpoint(self.workdir)) is not None:
             self.resume(ckpt)
         else:
@@ -153,33 +171,67 @@ class Trainer:
             torch.manual_seed(config.seed)
 
     # -- one optimisation step ------------------------------------------------------------------------------
-    def train_step(self) -> dict[str, float]:
+    def train_step(self) -> dict[str, torch.Tensor]:
+        """One optimiser step. Returns the logged terms as detached 0-d tensors on the training device (reading
+        them, e.g. with ``float``, waits for the device: :meth:`fit` sums them there and reads at log steps)."""
         cfg = self.config
         set_lr(self.optimizer, cfg.lr_at(self.step))
         self.model.train()
-        # The global batch is drawn identically on every rank; each keeps its shard.
-        batch = to_device(shard_batch(self.batch_fn(self.step, self.data_generator), self.dist), self.device)
-        with autocast(self.precision, self.device):
-            terms = self.loss_fn(self.model, batch, self.noise_generator)
+        with trusted_values():
+            # The global batch is drawn identically on every rank; each keeps its shard.
+            batch = to_device(shard_batch(self.batch_fn(self.step, self.data_generator), self.dist), self.device)
+            with autocast(self.precision, self.device):
+                terms = self.loss_fn(self.model, batch, self.noise_generator)
         if "loss" not in terms:
             raise ValueError(f"loss_fn must return a dict with a 'loss' entry, got keys {sorted(terms)}")
         loss = terms["loss"]
-        if not torch.isfinite(loss):
-            raise FloatingPointError(f"loss is {loss.item()} at step {self.step}")
+        self._note_nonfinite(loss.detach())
         self.optimizer.zero_grad(set_to_none=True)
         loss.backward()
         average_gradients(self.model.parameters(), self.dist)
-        logged = {k: float(v.detach()) if torch.is_tensor(v) else float(v) for k, v in terms.items()}
-        logged = average_scalars(logged, self.dist)
+        logged = {k: self._as_tensor(v) for k, v in terms.items()}
         if cfg.grad_clip is not None:
-            logged["grad_norm"] = float(nn.utils.clip_grad_norm_(self.model.parameters(), cfg.grad_clip))
+            logged["grad_norm"] = nn.utils.clip_grad_norm_(self.model.parameters(), cfg.grad_clip).detach()
         self.optimizer.step()
         if self.ema is not None:
             self.ema.update(self.model)
         self.step += 1
         return logged
 
+    def _as_tensor(self, value) -> torch.Tensor:
+        if torch.is_tensor(value):
+            return value.detach()
+        return torch.full((), float(value), device=self.device)  # a fill kernel: no host-to-device copy
+
+    # -- the finite-loss watch: written on the device every step, read at log steps ----------------------------
+    def _no_nonfinite(self) -> torch.Tensor:
+        return torch.tensor([-1.0, 0.0], dtype=torch.float64, device=self.device)
+
+    def _note_nonfinite(self, loss: torch.Tensor) -> None:
+        seen = self._first_nonfinite
+        first = (seen[0] < 0) & ~torch.isfinite(loss)
+        step = torch.full((), float(self.step), dtype=torch.float64, device=self.device)  # a fill, not a copy
+        here = torch.stack([step, loss.double()])
+        self._first_nonfinite = torch.where(first, here, seen)
+
+    def _check_finite(self) -> None:
+        step, value = self._first_nonfinite.tolist()
+        if step >= 0:
+            raise FloatingPointError(f"loss is {value} at step {int(step)}")
+
     # -- the loop ----------------------------------------------------------------------------------------------
+    def _accumulate(self, logged: dict[str, torch.Tensor]) -> None:
+        for k, v in logged.items():
+            v = v.to(device=self.device, dtype=torch.float64)
+            self._acc[k] = self._acc[k] + v if k in self._acc else v
+        self._acc_n += 1
+
+    def _read_sums(self) -> dict[str, float]:
+        """The logged sums as floats (one read for all of them), averaged over ranks."""
+        keys = list(self._acc)
+        values = torch.stack([self._acc[k] for k in keys]).tolist() if keys else []
+        return average_scalars(dict(zip(keys, values)), self.dist)
+
     def fit(self, until: int | None = None) -> list[dict[str, float]]:
         """Train up to step ``until`` (default: ``config.steps``); returns the history of logged averages."""
         cfg = self.config
@@ -193,15 +245,13 @@ class Trainer:
         )
         try:
             while self.step < stop:
-                logged = self.train_step()
+                self._accumulate(self.train_step())
                 bar.update(1)
                 report_progress(self.desc, self.step, cfg.steps)
-                for k, v in logged.items():
-                    self._acc[k] = self._acc.get(k, 0.0) + v
-                self._acc_n += 1
                 if self.step % cfg.log_every == 0 or self.step == cfg.steps:
+                    self._check_finite()
                     row = {"step": self.step, "lr": cfg.lr_at(self.step - 1)}
-                    row.update({k: v / self._acc_n for k, v in self._acc.items()})
+                    row.update({k: v / self._acc_n for k, v in self._read_sums().items()})
                     self.history.append(row)
                     self._acc, self._acc_n = {}, 0
                     bar.set_postfix(loss=f"{row['loss']:.4f}", lr=f"{row['lr']:.2e}")
@@ -211,6 +261,7 @@ class Trainer:
                     self.save()
         finally:
             bar.close()
+        self._check_finite()
         if self.workdir is not None and self._saved_step != self.step:
             self.save()
         return self.history
@@ -244,10 +295,11 @@ class Trainer:
         for rank, state in enumerate(gather_generator_states(self.noise_generator, self.dist)):
             generators[self._noise_name(rank)] = torch.Generator(device=self.noise_generator.device)
             generators[self._noise_name(rank)].set_state(state)
+        self._check_finite()  # never checkpoint weights a non-finite loss has touched
         meta = {
             "config": asdict(self.config),
             "history": self.history,
-            "acc": self._acc,
+            "acc": {k: float(v) for k, v in self._acc.items()},  # this rank's sums (ranks average at the log line)
             "acc_n": self._acc_n,
         }
         path = self.workdir / f"step_{self.step:08d}"
@@ -266,7 +318,8 @@ class Trainer:
             raise ValueError(f"checkpoint {path} was written with a different TrainConfig: {', '.join(differ)} differ")
         self.step = self._saved_step = int(meta["step"])
         self.history = list(meta["history"])
-        self._acc, self._acc_n = dict(meta["acc"]), int(meta["acc_n"])
+        self._acc = {k: torch.tensor(float(v), dtype=torch.float64, device=self.device) for k, v in meta["acc"].items()}
+        self._acc_n = int(meta["acc_n"])
 
 
 def final_loss(history: list[dict[str, float]]) -> float:

@@ -1,0 +1,112 @@
+"""A training step never reads a tensor back to the host: the GPU path's no-sync rule, checked on the CPU.
+
+Every ``aten::_local_scalar_dense`` is a value read that, on a GPU, waits for every queued kernel. The trainers of
+the book's three trained families read none per step that does not log (the RVQ tokenizer's layer dropout
+decides in Python how many layers run: that draw is read, one or two values, and nothing else is).
+"""
+
+from __future__ import annotations
+
+import pytest
+import torch
+from torch.profiler import profile
+from torch.utils._python_dispatch import TorchDispatchMode
+
+from motionlab.data import load_dataset
+from motionlab.diffusion.training import (
+    TextToMotionNetworks,
+    build_vocabulary,
+    diffusion_training_config,
+    make_transitions,
+    text_to_motion_trainer,
+    tokenize_clips,
+)
+from motionlab.flow import DisCoRDDecoder, discord_config
+from motionlab.flow.training import discord_trainer
+from motionlab.tokenizers import build_tokenizer, rvq_config, vq_config
+from motionlab.tokenizers.training import tokenizer_trainer
+
+READ = "aten::_local_scalar_dense"
+
+
+@pytest.fixture(scope="module")
+def dataset():
+    return load_dataset(None, profile="smoke")
+
+
+def reads_per_step(trainer, warm_steps: int = 2) -> int:
+    """Host scalar reads in one ``train_step``, counted by torch's profiler (after warm-up steps).
+
+    Under bf16 on the CPU the trainer takes torch's fused AdamW, whose CPU kernel reads each parameter's step
+    counter (a CPU tensor) inside C++; on CUDA the same kernel reads them on the device. Those reads are not
+    counted: the fp32 step, whose optimizer is the library's, shows the rest of the step reads nothing.
+    """
+    for _ in range(warm_steps):  # the first steps initialise codebooks and optimiser state
+        trainer.train_step()
+    with profile() as prof:
+        trainer.train_step()
+    fused = trainer.device.type == "cpu" and trainer.optimizer.defaults.get("fused")
+    counters = len(trainer.optimizer.state) if fused else 0
+    return sum(e.count for e in prof.key_averages() if e.key == READ) - counters
+
+
+class ReadsInside(TorchDispatchMode):
+    """Counts host scalar reads, and separately those made while ``inside`` is set."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.total, self.marked, self.inside = 0, 0, False
+
+    def __torch_dispatch__(self, func, types, args=(), kwargs=None):
+        if func is torch.ops.aten._local_scalar_dense.default:
+            self.total += 1
+            self.marked += self.inside
+        return func(*args, **(kwargs or {}))
+
+
+@pytest.mark.parametrize("precision", ["fp32", "bf16"])
+def test_the_discord_step_reads_nothing(dataset, precision):
+    tokenizer = build_tokenizer(rvq_config("smoke")).eval()
+    model = DisCoRDDecoder(discord_config("smoke", tokenizer=tokenizer))
+    trainer = discord_trainer(model, tokenizer, dataset.normalized("train"), progress=False, precision=precision)
+    assert reads_per_step(trainer) <= 1  # 153 before the step stopped reading back
+
+
+@pytest.mark.parametrize("precision", ["fp32", "bf16"])
+def test_the_text_to_motion_step_reads_nothing(dataset, precision):
+    tokenizer = build_tokenizer(vq_config("smoke")).eval()
+    config = diffusion_training_config("smoke", num_codes=tokenizer.codebook_size)
+    captions = [[c.text for c in clip.captions] for clip in dataset.split("train")]
+    sequences = tokenize_clips(tokenizer, dataset.normalized("train"))
+    transitions = make_transitions(config.transformer, tokenizer.codebook().cpu())
+    networks = TextToMotionNetworks(config, build_vocabulary(captions, config))
+    trainer = text_to_motion_trainer(
+        networks, sequences, captions, transitions, config, progress=False, precision=precision
+    )
+    assert reads_per_step(trainer) <= 1  # 112 before
+
+
+def test_the_tokenizer_steps_read_only_the_layer_dropout_draw(dataset):
+    plain = build_tokenizer(vq_config("smoke"))
+    assert reads_per_step(tokenizer_trainer(plain, dataset.normalized("train"), progress=False)) <= 1
+
+    config = rvq_config("smoke")
+    assert config.quantize_dropout > 0  # the smoke RVQ drops layers, as MoMask's does
+    residual = build_tokenizer(config)
+    trainer = tokenizer_trainer(residual, dataset.normalized("train"), progress=False)
+    assert reads_per_step(trainer) <= 3  # 87 before
+    counter, draw = ReadsInside(), residual.quantizer.active_layers
+
+    def marked_draw(generator):
+        counter.inside = True
+        try:
+            return draw(generator)
+        finally:
+            counter.inside = False
+
+    residual.quantizer.active_layers = marked_draw
+    with counter:
+        for _ in range(8):
+            trainer.train_step()
+    assert 8 <= counter.marked <= 16  # the draw: is a layer dropped (one read), and if so how many (another)
+    assert counter.total - counter.marked <= 8

@@ -1,0 +1,46 @@
+"""The determinism and compile run settings: resolved from options or the environment, exported, applied."""
+
+from __future__ import annotations
+
+import pytest
+import torch
+
+from motionlab.settings import RunSettings, apply_settings, resolve_settings
+from motionlab.train.compiling import compile_for_training, should_compile
+
+
+def test_the_settings_come_from_options_then_the_environment(monkeypatch):
+    monkeypatch.delenv("MOTIONLAB_DETERMINISTIC", raising=False)
+    monkeypatch.delenv("MOTIONLAB_COMPILE", raising=False)
+    plain = resolve_settings("smoke")
+    assert (plain.deterministic, plain.compile) == (False, "auto")
+    monkeypatch.setenv("MOTIONLAB_DETERMINISTIC", "1")
+    monkeypatch.setenv("MOTIONLAB_COMPILE", "off")
+    assert (resolve_settings("smoke").deterministic, resolve_settings("smoke").compile) == (True, "off")
+    assert resolve_settings("smoke", deterministic=False, compile="on").compile == "on"
+    monkeypatch.setenv("MOTIONLAB_DETERMINISTIC", "maybe")
+    with pytest.raises(ValueError, match="MOTIONLAB_DETERMINISTIC"):
+        resolve_settings("smoke")
+    with pytest.raises(ValueError, match="compile"):
+        RunSettings("smoke", compile="sometimes")
+
+
+def test_applying_exports_them_and_switches_torch_to_deterministic_kernels(monkeypatch):
+    settings = apply_settings(RunSettings("smoke", "fp32", deterministic=True, compile="off"))
+    assert torch.are_deterministic_algorithms_enabled() and torch.backends.cudnn.deterministic
+    assert resolve_settings() == settings  # what a worker process reads back from the environment
+    assert "deterministic kernels" in settings.describe() and "compile off" in settings.describe()
+    apply_settings(RunSettings("smoke", "fp32"))
+    assert not torch.are_deterministic_algorithms_enabled()
+
+
+def test_compiling_is_cuda_only_under_auto_and_never_when_off(monkeypatch):
+    assert not should_compile("discord", "cpu", "auto")  # never measured to pay on these CPUs
+    assert should_compile("discord", "cuda", "auto") and not should_compile("denoiser", "cuda", "auto")
+    assert should_compile("tokenizer", "cpu", "on") and not should_compile("discord", "cuda", "off")
+    with pytest.raises(ValueError, match="part"):
+        should_compile("vocoder", "cpu", "auto")
+    monkeypatch.setenv("MOTIONLAB_COMPILE", "auto")
+    layer = torch.nn.Linear(2, 2)
+    assert not compile_for_training([layer], "discord", torch.device("cpu"))
+    assert layer._compiled_call_impl is None  # left as it was
