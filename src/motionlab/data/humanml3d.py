@@ -26,6 +26,9 @@ import numpy as np
 from ..representation import Normalizer, Skeleton, skeleton_for_feature_dim
 
 SPLITS = ("train", "val", "test", "train_val", "all")
+# clip ids listed in the released HumanML3D split files (half carry the M prefix of a mirrored clip): what a
+# full-scale schedule counted in epochs iterates over
+HUMANML3D_SPLIT_SIZES = {"train": 23_384, "val": 1_460, "test": 4_384, "train_val": 24_844, "all": 29_228}
 
 
 @dataclass(frozen=True)

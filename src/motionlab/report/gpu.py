@@ -1,0 +1,164 @@
+"""What the library's training steps and decodes cost on a GPU, read from the recorded runs of the GPU benchmark.
+
+Each file in ``book/data/gpu/`` is one run of ``benchmarks/bench_gpu.py`` (or, for the first run, the hand-written
+script it grew from): a ``machine`` record (the GPU, torch, CUDA, the commit, the measured matmul peak) and one record
+per training step and per decode timed. This module turns a run into the tables chapter 98 shows and into the
+projection a reader planning a full-scale run needs: each model's published schedule at the measured step time.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from motionlab.data.humanml3d import HUMANML3D_SPLIT_SIZES
+from motionlab.diffusion.training import diffusion_training_config, optimisation
+from motionlab.flow.config import discord_config
+from motionlab.sizes import chapter_sizes
+from motionlab.tokenizers.config import rvq_config
+
+MODEL_NAMES = {
+    "rvq": "MoMask RVQ-VAE",
+    "discord": "DisCoRD decoder",
+    "t2m": "M2D2M text encoder + denoiser",
+}
+VARIANTS = ("library train_step", "module", "module, compiled", "official module")
+
+
+@dataclass(frozen=True)
+class GPURun:
+    """One recorded run: where it ran and what it measured."""
+
+    path: Path
+    machine: dict
+    train: list[dict] = field(default_factory=list)
+    decode: list[dict] = field(default_factory=list)
+
+    @property
+    def peak_tflops(self) -> float | None:
+        """The bf16 matmul peak measured in the same run (TFLOP/s)."""
+        return self.machine.get("matmul_tflops", {}).get("bf16")
+
+    def describe(self) -> str:
+        m = self.machine
+        return (
+            f"{m['device']}, torch {m['torch']}, CUDA {m['cuda']}, commit {m['commit']}, {m['date']}; bf16 matmul "
+            f"peak {self.peak_tflops:.0f} TFLOP/s"
+        )
+
+    def step_ms(self, model: str, variant: str, precision: str = "bf16") -> float | None:
+        for r in self.train:
+            if (r["model"], r["variant"], r["precision"]) == (model, variant, precision):
+                return r["step_ms_median"]
+        return None
+
+
+def read_gpu_run(path: str | os.PathLike) -> GPURun:
+    """One run's records (a JSON list with exactly one ``machine`` record)."""
+    records = json.loads(Path(path).read_text())
+    machines = [r for r in records if r.get("section") == "machine"]
+    if len(machines) != 1:
+        raise ValueError(f"{path}: a GPU run holds exactly one machine record, found {len(machines)}")
+    by = lambda section: [r for r in records if r.get("section") == section]  # noqa: E731
+    return GPURun(Path(path), machines[0], by("train"), by("decode"))
+
+
+def load_gpu_runs(folder: str | os.PathLike) -> list[GPURun]:
+    """Every recorded run in ``folder``, oldest first (an absent folder: none)."""
+    folder = Path(folder)
+    runs = [read_gpu_run(p) for p in sorted(folder.glob("*.json"))] if folder.is_dir() else []
+    return sorted(runs, key=lambda r: (r.machine["date"], r.path.name))
+
+
+def full_schedule_steps() -> dict[str, int]:
+    """Optimizer steps of each model's schedule in the ``full`` profile (the papers' where they state one), the
+    text-to-motion model's 110 epochs counted over HumanML3D's train split."""
+    t2m = diffusion_training_config("full", num_codes=rvq_config("full").codebook_size)
+    return {
+        "rvq": rvq_config("full").train.steps,
+        "discord": discord_config("full").train_steps,
+        "t2m": optimisation(t2m, HUMANML3D_SPLIT_SIZES["train"]).steps,
+    }
+
+
+def step_table(run: GPURun) -> str:
+    """Markdown: every timed step of ``run``, its FLOPs and its share of the run's bf16 matmul peak."""
+    rows = [
+        "| model | precision | what ran | batch | ms / step | TFLOP / step | share of bf16 peak |",
+        "|---|---|---|---:|---:|---:|---:|",
+    ]
+    order = {v: i for i, v in enumerate(VARIANTS)}
+    for r in sorted(run.train, key=lambda r: (r["model"], r["precision"], order.get(r["variant"], 9))):
+        share = r["tflop_per_step"] / (r["step_ms_median"] / 1e3) / run.peak_tflops if run.peak_tflops else math.nan
+        rows.append(
+            f"| {MODEL_NAMES[r['model']]} | {r['precision']} | {r['variant']} | {r['batch']} | "
+            f"{r['step_ms_median']:.1f} | {r['tflop_per_step']:.2f} | {100 * share:.1f}% |"
+        )
+    return "\n".join(rows)
+
+
+def projection_table(run: GPURun, precision: str = "bf16") -> str:
+    """Markdown: each model's ``full`` schedule in hours at each measured step time of ``run``."""
+    steps = full_schedule_steps()
+    present = [v for v in VARIANTS if any(run.step_ms(m, v, precision) for m in steps)]
+    rows = [
+        "| model | the full profile's schedule | " + " | ".join(present) + " |",
+        "|---|---:|" + "---:|" * len(present),
+    ]
+    for model, n in steps.items():
+        cells = []
+        for variant in present:
+            ms = run.step_ms(model, variant, precision)
+            cells.append(f"{n * ms / 3.6e6:.1f} h" if ms else "not measured")
+        rows.append(f"| {MODEL_NAMES[model]} | {n:,} steps | " + " | ".join(cells) + " |")
+    return "\n".join(rows)
+
+
+def decode_table(run: GPURun) -> str:
+    """Markdown: DisCoRD's Table E grid (seconds per call, 196 frames) for every decoder and precision of ``run``."""
+    grid = sorted({(r["batch"], r["points"]) for r in run.decode if r["points"]})
+    header = " | ".join(f"batch {b}, {p} points" for b, p in grid)
+    rows = [
+        f"| decoder | precision | {header} | feed-forward (batch 1 / 32) |",
+        "|---|---|" + "---:|" * (len(grid) + 1),
+    ]
+    seconds = {(r["decoder"], r["precision"], r["batch"], r["points"]): r["seconds_median"] for r in run.decode}
+    for decoder in sorted({r["decoder"] for r in run.decode if r["points"]}):
+        for precision in sorted({r["precision"] for r in run.decode if r["decoder"] == decoder}):
+            cells = [seconds.get((decoder, precision, b, p)) for b, p in grid]
+            ff_name = "official feed-forward" if decoder.startswith("official") else "feed-forward"
+            ff = [seconds.get((ff_name, "fp32", b, 0)) for b in (1, 32)]
+            ff_text = " / ".join(f"{s:.4f}" for s in ff if s is not None) if precision == "fp32" else ""
+            text = " | ".join(f"{s:.4f}" if s is not None else "–" for s in cells)
+            rows.append(f"| {decoder} | {precision} | {text} | {ff_text} |")
+    return "\n".join(rows)
+
+
+def table1_decode_seconds(run: GPURun, precision: str = "bf16", decoder: str = "motionlab") -> float | None:
+    """GPU seconds of DisCoRD Table 1's decoding at full scale (every test clip, every seed) at ``run``'s batch-32,
+    16-point decode time; None where ``run`` did not time it. The evaluator's forward passes come on top."""
+    sizes = chapter_sizes("full").discord
+    per_call = [
+        r["seconds_median"]
+        for r in run.decode
+        if (r["decoder"], r["precision"], r["batch"], r["points"]) == (decoder, precision, 32, 16)
+    ]
+    if not per_call:
+        return None
+    clips = sizes.test_clips if sizes.test_clips is not None else HUMANML3D_SPLIT_SIZES["test"]  # None: all of it
+    return math.ceil(clips / 32) * sizes.seeds * per_call[0]
+
+
+__all__ = [
+    "GPURun",
+    "decode_table",
+    "full_schedule_steps",
+    "load_gpu_runs",
+    "projection_table",
+    "read_gpu_run",
+    "step_table",
+    "table1_decode_seconds",
+]

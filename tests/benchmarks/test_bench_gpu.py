@@ -1,0 +1,56 @@
+"""The GPU benchmark runs end to end at the smoke sizes on the CPU, so a GPU run only has to be started."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+from motionlab.report.gpu import decode_table, projection_table, read_gpu_run, step_table
+
+
+def gpu_tables(run) -> str:
+    return "\n".join([step_table(run), projection_table(run, precision="fp32"), decode_table(run)])
+
+
+BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
+
+
+@pytest.fixture
+def bench_gpu(monkeypatch):
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    import bench_gpu
+
+    yield bench_gpu
+    sys.modules.pop("bench_gpu", None)
+
+
+def test_the_smoke_run_records_every_section(bench_gpu, tmp_path, capsys):
+    out = tmp_path / "gpu.json"
+    argv = ["--smoke", "--precisions", "fp32", "--repeats", "1", "--steps", "1", "--decode-repeats", "1"]
+    bench_gpu.main([*argv, "--json", str(out)])
+    records = json.loads(out.read_text())
+    machine = [r for r in records if r["section"] == "machine"]
+    assert len(machine) == 1 and machine[0]["profile"] == "smoke" and machine[0]["matmul_tflops"]["bf16"] > 0
+
+    train = {(r["model"], r["variant"]): r for r in records if r["section"] == "train"}
+    assert set(train) == {(m, v) for m in ("rvq", "discord", "t2m") for v in ("library train_step", "module")}
+    for r in train.values():
+        assert r["step_ms_min"] <= r["step_ms_median"] <= r["step_ms_max"]
+        assert r["tflop_per_step"] > 0 and 0 < r["share_of_bf16_peak"] < 1
+        assert r["batch"] >= 1
+    assert all(train[m, "module"]["ratio_to_module"] == 1.0 for m in ("rvq", "discord", "t2m"))
+
+    decode = {(r["decoder"], r["batch"], r["points"]) for r in records if r["section"] == "decode"}
+    assert decode == {("feed-forward", b, 0) for b in (1, 32)} | {("motionlab", b, p) for b in (1, 32) for p in (2, 16)}
+    assert "train discord" in capsys.readouterr().out
+
+    run = read_gpu_run(out)  # what chapter 98 reads
+    assert "smoke" not in gpu_tables(run) and "| DisCoRD decoder | fp32 | module |" in gpu_tables(run)
+
+
+def test_official_modules_need_their_repositories(bench_gpu, tmp_path):
+    with pytest.raises(FileNotFoundError):
+        bench_gpu.official_discord_unet(tmp_path, None)
