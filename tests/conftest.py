@@ -62,13 +62,31 @@ def fp32_run_settings():
     os.environ["MOTIONLAB_PRECISION"] = "fp32"
     os.environ["MOTIONLAB_FORCE_PRECISION"] = "1"
     deterministic = torch.are_deterministic_algorithms_enabled(), torch.is_deterministic_algorithms_warn_only_enabled()
+    cudnn = torch.backends.cudnn.deterministic, torch.backends.cudnn.benchmark
     yield
     for name, value in saved.items():
         if value is None:
             os.environ.pop(name, None)
         else:
             os.environ[name] = value
-    torch.use_deterministic_algorithms(deterministic[0], warn_only=deterministic[1])  # a run setting may set it
+    torch.use_deterministic_algorithms(deterministic[0], warn_only=deterministic[1])  # a run setting may set them
+    torch.backends.cudnn.deterministic, torch.backends.cudnn.benchmark = cudnn
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "cpu_only(reason): holds on the CPU by nature; skipped on another device")
+
+
+def pytest_collection_modifyitems(config, items):
+    """Skip the ``cpu_only`` tests when ``$MOTIONLAB_DEVICE`` sends the library to another device."""
+    device = os.environ.get("MOTIONLAB_DEVICE", "").strip()
+    if not device or device.startswith("cpu"):
+        return
+    for item in items:
+        marker = item.get_closest_marker("cpu_only")
+        if marker is not None:
+            reason = marker.args[0] if marker.args else "holds on the CPU only"
+            item.add_marker(pytest.mark.skip(reason=f"CPU only ({device} requested): {reason}"))
 
 
 GLOVE_WORDS = ["sos", "eos", "unk", "a", "person", "walk", "left"]

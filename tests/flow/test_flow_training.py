@@ -74,7 +74,7 @@ def test_cached_weights_are_the_ema_average(dataset, tokenizer, isolated_cache):
     assert len(history) == 6
     for (name, a), (_, b) in zip(trained.state_dict().items(), model.state_dict().items()):
         assert torch.allclose(a, b, atol=1e-6), name  # same seeds → same run (validation does not perturb it)
-    fresh = DisCoRDDecoder(config)
+    fresh = DisCoRDDecoder(config).to(next(model.parameters()).device)
     ema_moved = [not torch.equal(a, b) for a, b in zip(fresh.state_dict().values(), model.state_dict().values())]
     assert any(ema_moved)
 

@@ -130,6 +130,7 @@ def test_training_reduces_the_loss_and_retrieves_held_out_pairs(trained, toy):
     assert top[2] > 0.25 and top[0] <= top[1] <= top[2]
 
 
+@pytest.mark.cpu_only("exact batch invariance is a property of the CPU's kernels; cuDNN's vary with the batch")
 def test_embeddings_do_not_depend_on_order_batching_or_the_cropped_tail(trained, toy):
     clips = [c.features for c in toy.split("test")[:10]]
     emb = trained.embed_motions(clips)

@@ -29,7 +29,9 @@ def test_tiny_rvq_learns_real_clips():
     def full_clip_error():
         model.eval()
         with torch.no_grad():
-            errs = [F.mse_loss(model.decode(model.encode(m[None, :n])), m[None, :n]) for m, n in zip(motion, lengths)]
+            errs = [
+                F.mse_loss(model.decode(model.encode(m[None, :n])).cpu(), m[None, :n]) for m, n in zip(motion, lengths)
+            ]
         return float(torch.stack(errs).mean())
 
     before = full_clip_error()

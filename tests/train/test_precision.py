@@ -75,6 +75,7 @@ def test_the_cli_refuses_bf16_before_any_work_and_force_precision_insists(monkey
 
     monkeypatch.setattr(P, "_cpu_bf16_refusal", lambda cap: P.bf16_refusal(AVX2, cap))
     monkeypatch.delenv("MOTIONLAB_FORCE_PRECISION", raising=False)
+    monkeypatch.setenv("MOTIONLAB_DEVICE", "cpu")  # the refusal is the CPU's, whatever else the machine has
     assert main(["--precision", "bf16", "data", "check", str(tmp_path)]) == 2
     assert "precision bf16 refused" in capsys.readouterr().err
     assert main(["--precision", "bf16", "--force-precision", "data", "check", str(tmp_path)]) == 1  # ran: problems
@@ -230,6 +231,7 @@ def _probe(folder: Path, home: Path, src: Path | None) -> dict:
         **os.environ,
         "MOTIONLAB_HOME": str(home),
         "MOTIONLAB_PRECISION": "fp32",
+        "MOTIONLAB_DEVICE": "cpu",  # the bit-for-bit claim is about the CPU's fp32 path
         "MOTIONLAB_THREADS": "1",
         "OMP_NUM_THREADS": "1",
         "PYTHONPATH": str(src) if src else "",

@@ -44,3 +44,14 @@ def test_compiling_is_cuda_only_under_auto_and_never_when_off(monkeypatch):
     layer = torch.nn.Linear(2, 2)
     assert not compile_for_training([layer], "discord", torch.device("cpu"))
     assert layer._compiled_call_impl is None  # left as it was
+
+
+@pytest.mark.filterwarnings("ignore::DeprecationWarning")  # importing torch's compiler stack warns about torch.jit
+def test_a_trained_model_is_handed_back_uncompiled():
+    from motionlab.train.compiling import release_compiled
+
+    model = torch.nn.Sequential(torch.nn.Linear(2, 2), torch.nn.Linear(2, 1))
+    model[0].compile()  # compiles lazily, at the first call: nothing is built here
+    assert model[0]._compiled_call_impl is not None
+    release_compiled(model)
+    assert all(m._compiled_call_impl is None for m in model.modules())

@@ -54,7 +54,9 @@ def vb_terms(log_p_x0: Tensor, x0: Tensor, x_t: Tensor, t: Tensor, transitions: 
     if t.ndim != 1 or t.shape[0] != x0.shape[0] or (values_checked(t) and (t.min() < 1 or t.max() > transitions.T)):
         raise ValueError(f"t must be (B,) with values in [1, {transitions.T}], got {tuple(t.shape)}")
     t = t.to(transitions.one_step.device)
-    step, cum_prev, cum_t = transitions.one_step[t], transitions.cumulative[t - 1], transitions.cumulative[t]
+    step, cum_prev, cum_t = (
+        m.to(x0.device) for m in (transitions.one_step[t], transitions.cumulative[t - 1], transitions.cumulative[t])
+    )
     log_q = log_q_posterior(x0, x_t, step, cum_prev)  # (B, L, K+1)
     log_p = log_p_posterior(log_p_x0, x_t, step, cum_prev, cum_t)  # (B, L, K+1)
     kl = (log_q.exp() * (log_q - log_p)).sum(dim=-1)  # (B, L)
@@ -103,7 +105,8 @@ def diffusion_loss(
     if t is None:
         t = sample_timesteps(B, transitions.T, generator)
     t = t.to(x0.device)
-    x_t = q_sample(x0, transitions.cumulative[t.to(transitions.cumulative.device)], generator).to(x0.device)
+    rows = transitions.cumulative[t.to(transitions.cumulative.device)].to(x0.device)  # Q̄_t of each clip
+    x_t = q_sample(x0, rows, generator).to(x0.device)
     if padding_mask is not None:
         x_t = x_t.masked_fill(padding_mask, K)
     log_p_x0 = model(

@@ -201,6 +201,13 @@ def denoise_step(
     return x_prev
 
 
+def model_device(model: nn.Module, default: torch.device) -> torch.device:
+    """Where ``model``'s weights live (``default`` for a model without any, e.g. a test stand-in)."""
+    for tensor in (*model.parameters(), *model.buffers()):
+        return tensor.device
+    return default
+
+
 @torch.no_grad()
 def sample(
     model: nn.Module,
@@ -235,7 +242,9 @@ def sample(
     grid = list(timesteps) if timesteps is not None else timestep_grid(transitions.T, num_steps)
     if grid[0] != transitions.T or grid[-1] != 0 or any(a <= b for a, b in zip(grid, grid[1:], strict=False)):
         raise ValueError(f"timesteps must descend strictly from T={transitions.T} to 0, got {grid}")
-    dev = text.device
+    dev = model_device(model, text.device)  # the ids are generated (and returned) where the model lives
+    text = text.to(dev)
+    text_padding_mask = text_padding_mask.to(dev) if text_padding_mask is not None else None
     L = int(lengths.max())
     padding_mask = torch.arange(L, device=dev)[None, :] >= lengths.to(dev)[:, None]  # (B, L)
     x = torch.full((B, L), transitions.mask_id, dtype=torch.long, device=dev)

@@ -34,7 +34,7 @@ from motionlab.profiles import get_profile
 from motionlab.sizes import DIFFUSION_TRAINING, WORD_ENCODER, resized
 from motionlab.text import Vocabulary, WordTextEncoder
 from motionlab.train import TrainConfig, Trainer
-from motionlab.train.compiling import compile_for_training
+from motionlab.train.compiling import compile_for_training, release_compiled
 
 PAPER_ETA = 0.5  # M2D2M appendix A.1: η for single-motion generation (0.25 for multi-motion)
 
@@ -419,6 +419,9 @@ def train_text_to_motion(
     trainer = text_to_motion_trainer(
         networks, sequences, captions, transitions, config, workdir=workdir, device=device, progress=progress
     )
-    history = trainer.fit()
+    try:
+        history = trainer.fit()
+    finally:
+        release_compiled(networks)
     networks.eval()
     return history

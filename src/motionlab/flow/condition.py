@@ -130,7 +130,8 @@ def token_influence(projection: nn.Module, n_tokens: int = 6, seed: int = 0, ato
     """
     _check_token_influence_inputs(projection, n_tokens)
     d = projection.code_dim
-    base = torch.randn(1, n_tokens, d, generator=torch.Generator().manual_seed(seed))  # (1, N, d)
+    base = torch.randn(1, n_tokens, d, generator=torch.Generator().manual_seed(seed))  # (1, N, d), drawn on the CPU
+    base = base.to(next(projection.parameters()).device)  # the result lives on the projection's device
     reference = projection(base)  # (1, q·N, c)
     rows = []
     for n in range(n_tokens):

@@ -131,8 +131,10 @@ class DisCoRDDecoder(nn.Module):
         return as_velocity_fn(self.unet, self.config.prediction)
 
     def velocity(self, x_t: Tensor, t: Tensor, code_vectors: Tensor) -> Tensor:
-        """``v(x_t, t, C(Z))`` in model space: ``(B, T, D), (B,), (B, T/q, d) -> (B, T, D)``."""
+        """``v(x_t, t, C(Z))`` in model space: ``(B, T, D), (B,), (B, T/q, d) -> (B, T, D)``, on the decoder's device
+        (the inputs are moved there)."""
         self._check_pair(x_t, code_vectors, "x_t")
+        x_t, t, code_vectors = self._on_device(x_t, t, code_vectors)
         return self.velocity_field(x_t, t, self.condition(code_vectors))
 
     forward = velocity
@@ -140,9 +142,11 @@ class DisCoRDDecoder(nn.Module):
     def loss(self, motion: Tensor, code_vectors: Tensor, generator: torch.Generator) -> Tensor:
         """Rectified-flow MSE on a batch of windows ``motion (B, T, D)`` with their codes ``(B, T/q, d)``.
 
-        ``motion`` is tokenizer-normalised; the loss is taken in model space, on the velocity.
+        ``motion`` is tokenizer-normalised; the loss is taken in model space, on the velocity. The inputs are moved
+        to the decoder's device, where the loss lives; noise is drawn on ``generator``'s device.
         """
         self._check_pair(motion, code_vectors, "motion")
+        motion, code_vectors = self._on_device(motion, code_vectors)
         cfg = self.config
         cond = self.condition(code_vectors)  # (B, T, c)
         return flow_matching_loss(
@@ -240,6 +244,10 @@ class DisCoRDDecoder(nn.Module):
         )
 
     # ------------------------------------------------------------------ checks
+
+    def _on_device(self, *tensors: Tensor) -> tuple[Tensor, ...]:
+        device = next(self.parameters()).device
+        return tuple(t.to(device) if isinstance(t, Tensor) else t for t in tensors)
 
     def _check_pair(self, x: Tensor, code_vectors: Tensor, name: str) -> None:
         cfg = self.config

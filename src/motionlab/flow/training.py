@@ -29,7 +29,7 @@ from motionlab.flow.discord import DisCoRDDecoder, discord_loss_fn
 from motionlab.profiles import get_profile
 from motionlab.train import Trainer, WindowDataset, load_result, train_or_load
 from motionlab.train.cache import artefact_key
-from motionlab.train.compiling import compile_for_training
+from motionlab.train.compiling import compile_for_training, release_compiled
 
 MODEL_NAME = "discord"
 Clips = Sequence[np.ndarray]
@@ -191,7 +191,10 @@ def train_discord(
         model, tokenizer, train_clips, val_clips, workdir=workdir, device=device, progress=progress
     )
     wall, cpu = time.perf_counter(), time.process_time()
-    history = trainer.fit()
+    try:
+        history = trainer.fit()
+    finally:
+        release_compiled(model)
     seconds, cpu_seconds = time.perf_counter() - wall, time.process_time() - cpu
     if trainer.ema is not None:
         trainer.ema.copy_to(model)  # sample with the averaged weights

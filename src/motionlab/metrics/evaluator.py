@@ -172,7 +172,8 @@ class TextMotionEvaluator(nn.Module):
                 f"got {tuple(words.shape)} and {tuple(pos_onehot.shape)}"
             )
         lengths = _check_lengths(lengths, words.shape[0], words.shape[1], "lengths")
-        return self.text_encoder(words.float(), pos_onehot.float(), lengths)
+        device = next(self.parameters()).device  # the embeddings live here
+        return self.text_encoder(words.float().to(device), pos_onehot.float().to(device), lengths)
 
     def encode_motion(self, motions: torch.Tensor, lengths: torch.Tensor) -> torch.Tensor:
         """Normalised features ``(B, T, dim_pose)`` and lengths in frames ``(B,)`` -> ``(B, dim_coemb)``.
@@ -188,6 +189,7 @@ class TextMotionEvaluator(nn.Module):
             raise ValueError(f"motions must have shape (B, T, {c.dim_pose}), got {tuple(motions.shape)}")
         lengths = _check_lengths(lengths, motions.shape[0], motions.shape[1], "lengths")
         motions, lengths = official_motion_batch(motions, lengths, c.unit_length)
+        motions = motions.to(next(self.parameters()).device)  # the embeddings live on the evaluator's device
         movements = self.movement_encoder(motions[..., :-4].float())  # (B, T'/4, latent)
         return self.motion_encoder(movements, lengths // c.unit_length)
 
@@ -295,7 +297,8 @@ def contrastive_loss(
     if b < 2:
         raise ValueError(f"the contrastive loss needs a batch of at least 2 pairs, got {b}")
     if shift is None:
-        shift = int(torch.randint(1, b, (1,), generator=generator))
+        draw_on = generator.device if generator is not None else None
+        shift = int(torch.randint(1, b, (1,), generator=generator, device=draw_on))
     if not 1 <= shift < b:
         raise ValueError(f"shift must lie in [1, {b - 1}], got {shift}")
     pos = F.pairwise_distance(text_emb, motion_emb).pow(2).mean()

@@ -114,6 +114,7 @@ def encode_motion_exact(evaluator: TextMotionEvaluator, motions: torch.Tensor, l
     """
     c = evaluator.config
     lengths = _check_encode_motion_exact_inputs(motions, lengths, c)
+    motions = motions.to(next(evaluator.parameters()).device)  # the embeddings live on the evaluator's device
     conv = evaluator.movement_encoder
     steps = torch.arange(motions.shape[1], device=motions.device)
     x = motions[..., :-4].float() * (steps < lengths.to(motions.device)[:, None])[..., None]  # (B, T, D-4)

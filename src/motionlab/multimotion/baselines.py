@@ -34,6 +34,7 @@ from motionlab.diffusion import (
     sample,
     truncate,
 )
+from motionlab.diffusion.sampling import model_device
 from motionlab.multimotion.tps import (
     MultiMotionTokens,
     SegmentLayout,
@@ -138,7 +139,8 @@ def handshake_sample(
     tokens, text_pad = text_tensors(text, layout.n_segments)
     grid = phase_grid(transitions.T, transitions.T, num_steps, timesteps)
     windows = handshake_windows(layout, transition)
-    dev, mask_id, K = tokens.device, transitions.mask_id, transitions.mask_id
+    dev, mask_id, K = model_device(model, tokens.device), transitions.mask_id, transitions.mask_id
+    tokens, text_pad = tokens.to(dev), text_pad.to(dev)  # generated where the model lives
     L_c, w_max = layout.canvas_length, max(stop - start for _, start, stop in windows)
     # gather index (M, w_max) into the flattened canvas; padding points at a dummy slot past the end
     dummy = layout.n_instances * L_c

@@ -40,6 +40,7 @@ import torch
 from torch import Tensor, nn
 
 from motionlab.diffusion import Transitions, denoise_step, segment_cross_mask, timestep_grid
+from motionlab.diffusion.sampling import model_device
 from motionlab.precision import network_autocast
 
 UNIT = 4  # frames per motion token (the VQ-VAE's temporal downsampling)
@@ -309,7 +310,8 @@ def two_phase_sample(
     layout = segment_layout(segment_lengths)
     tokens, text_pad = text_tensors(text, layout.n_segments)
     grid = phase_grid(transitions.T, T_s, num_steps, timesteps)
-    dev, mask_id = tokens.device, transitions.mask_id
+    dev, mask_id = model_device(model, tokens.device), transitions.mask_id  # generated where the model lives
+    tokens, text_pad = tokens.to(dev), text_pad.to(dev)
     step_kw = dict(
         generator=generator, guidance_scale=guidance_scale, guidance_on=guidance_on, top_p=top_p, top_k=top_k
     )

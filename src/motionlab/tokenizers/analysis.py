@@ -77,7 +77,7 @@ def codebook_usage(ids: torch.Tensor | Sequence[torch.Tensor], codebook_size: in
         if not ids:
             raise ValueError("ids is an empty list")
         ids = torch.cat([torch.as_tensor(i) for i in ids])[None]  # (1, ΣN_i) or (1, ΣN_i, R)
-    ids = torch.as_tensor(ids)
+    ids = torch.as_tensor(ids).cpu()  # counted on the host, wherever the ids were made
     if ids.dim() == 3:
         ids = check_ids(ids, codebook_size, num_layers=ids.shape[-1])
         layers = ids.reshape(-1, ids.shape[-1]).t()  # (R, B·N)
@@ -354,17 +354,21 @@ def track_codebook(
     if steps < 1 or every < 1:
         raise ValueError(f"steps and every must be >= 1, got {steps} and {every}")
     quantizer.train()
-    saved_steps, codebooks = [0], [quantizer.codebook.detach().clone().numpy()]
+    saved_steps, codebooks = [0], [quantizer.codebook.detach().clone().cpu().numpy()]
     perplexity, usage, distortion = np.zeros(steps), np.zeros(steps), np.zeros(steps)
     for step in range(steps):
         x = batch_fn(step, generator)
         if x.dim() != 2 or x.shape[1] != quantizer.code_dim:
             raise ValueError(f"batch_fn must return (N, {quantizer.code_dim}), got {tuple(x.shape)}")
-        out = quantizer(x, generator)
-        perplexity[step], usage[step], distortion[step] = out.perplexity, out.usage, out.commit_loss
+        out = quantizer(x.to(quantizer.codebook.device), generator)
+        perplexity[step], usage[step], distortion[step] = (
+            out.perplexity.item(),
+            out.usage.item(),
+            out.commit_loss.item(),
+        )
         if (step + 1) % every == 0 or step + 1 == steps:
             saved_steps.append(step + 1)
-            codebooks.append(quantizer.codebook.detach().clone().numpy())
+            codebooks.append(quantizer.codebook.detach().clone().cpu().numpy())
     quantizer.eval()
     return CodebookTrace(np.array(saved_steps), np.stack(codebooks), perplexity, usage, distortion)
 

@@ -96,11 +96,14 @@ class QuantizerEMAReset(nn.Module):
     # -- training-time state updates --------------------------------------------------------------------------
     @torch.no_grad()
     def _random_rows(self, x: torch.Tensor, n: int, generator: torch.Generator) -> torch.Tensor:
-        """``n`` rows of ``x`` (N, C) picked at random: distinct when N ≥ n, else repeated with small noise."""
+        """``n`` rows of ``x`` (N, C) picked at random: distinct when N ≥ n, else repeated with small noise.
+
+        Drawn on ``generator``'s device (a CPU generator gives the same rows whatever device ``x`` is on)."""
+        draw_on = generator.device
         if x.shape[0] >= n:
-            return x[torch.randperm(x.shape[0], generator=generator, device=x.device)[:n]]
-        rows = x[torch.randint(x.shape[0], (n,), generator=generator, device=x.device)]
-        noise = torch.randn(rows.shape, generator=generator, device=x.device)
+            return x[torch.randperm(x.shape[0], generator=generator, device=draw_on)[:n].to(x.device)]
+        rows = x[torch.randint(x.shape[0], (n,), generator=generator, device=draw_on).to(x.device)]
+        noise = torch.randn(rows.shape, generator=generator, device=draw_on).to(x.device)
         return rows + noise * 0.01 / self.code_dim**0.5  # jitter so repeated rows are distinct codes
 
     @torch.no_grad()
@@ -150,7 +153,7 @@ class QuantizerEMAReset(nn.Module):
                 self.init_codebook(detached, gen)
             if self.gumbel_temperature > 0:
                 # Gumbel-max: argmax(−d/τ + g), g ~ Gumbel(0, 1), samples k ∝ exp(−d_k/τ)
-                u = torch.rand(flat.shape[0], self.codebook_size, generator=gen, device=x.device)
+                u = torch.rand(flat.shape[0], self.codebook_size, generator=gen, device=gen.device).to(x.device)
                 gumbel = -torch.log(-torch.log(u.clamp(1e-10, 1.0 - 1e-7)))
                 ids = (-self.distances(detached) / self.gumbel_temperature + gumbel).argmax(-1)
             else:

@@ -11,7 +11,7 @@ import torch
 import torch.nn.functional as F
 
 from ..train import Trainer, WindowDataset, load_trained, train_or_load
-from ..train.compiling import compile_for_training
+from ..train.compiling import compile_for_training, release_compiled
 from .config import RVQConfig, VQConfig, rvq_config, vq_config
 from .losses import tokenizer_loss
 from .models import RVQVAE, VQVAE, ConvTokenizer, build_tokenizer
@@ -21,8 +21,10 @@ KINDS = {"vq": vq_config, "rvq": rvq_config}
 
 
 def tokenizer_loss_fn(model: ConvTokenizer, batch: torch.Tensor, generator: torch.Generator) -> dict:
-    """The :class:`~motionlab.train.Trainer` loss: reconstruction + ric + commitment, plus codebook stats."""
+    """The :class:`~motionlab.train.Trainer` loss: reconstruction + ric + commitment, plus codebook stats (on the
+    model's device; ``batch`` is moved there)."""
     c = model.config
+    batch = batch.to(model.device)
     out = model(batch, generator=generator)
     terms = tokenizer_loss(out.recon, batch, out.commit_loss, c.n_joints, c.ric_weight, c.commit_weight)
     terms["perplexity"] = out.perplexity.detach().float().mean()  # mean over residual layers for RVQ
@@ -87,7 +89,10 @@ def train_tokenizer(
 ) -> list[dict[str, float]]:
     """Train ``model`` on random windows of normalised ``train_clips``; returns the logged history."""
     trainer = tokenizer_trainer(model, train_clips, val_clips, workdir=workdir, device=device, progress=progress)
-    history = trainer.fit()
+    try:
+        history = trainer.fit()
+    finally:
+        release_compiled(model)
     if trainer.val_fn is not None and not (history and any(k.startswith("val_") for k in history[-1])):
         history.append({"step": trainer.step, **trainer.validate()})
     model.eval()

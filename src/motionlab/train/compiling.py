@@ -11,7 +11,8 @@ the compile time. One run setting decides (``--compile``, ``$MOTIONLAB_COMPILE``
 - ``off``: compile nothing.
 
 Compiling changes no weight or checkpoint (``nn.Module.compile`` compiles the call in place; the state dict keeps
-its keys); the compiled kernels are cached under the motionlab cache root, so a second run starts faster.
+its keys); the compiled kernels are cached under the motionlab cache root, so a second run starts faster. After
+training the model is handed back uncompiled (:func:`release_compiled`).
 """
 
 from __future__ import annotations
@@ -54,4 +55,12 @@ def compile_for_training(modules: list[nn.Module], part: str, device: torch.devi
     return True
 
 
-__all__ = ["COMPILED_ON_CUDA", "PARTS", "compile_for_training", "should_compile"]
+def release_compiled(model: nn.Module) -> None:
+    """Undo :func:`compile_for_training` on every part of ``model``: the model a training run hands back then runs the
+    same eager kernels as a copy loaded from the cache, so its numbers equal the cached model's to the bit."""
+    for module in model.modules():
+        if getattr(module, "_compiled_call_impl", None) is not None:  # where nn.Module.compile keeps the compiled call
+            module._compiled_call_impl = None
+
+
+__all__ = ["COMPILED_ON_CUDA", "PARTS", "compile_for_training", "release_compiled", "should_compile"]
