@@ -187,6 +187,11 @@ def _train_book(args: argparse.Namespace, flow_options: dict) -> int:
     _check_cache_writable()
     profile = args.settings.profile
     plan = book_jobs(profile)
+    if profile == "laptop":  # what the whole build costs, from the one record the README and the intro quote
+        from .build.build_times import cold_build_line
+
+        if line := cold_build_line():
+            print(f"for scale: {line}", flush=True)
     try:
         results = run_plan(plan, workers=jobs)
     except KeyboardInterrupt:
