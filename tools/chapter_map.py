@@ -1,4 +1,4 @@
-"""Write the measured cold / warm minutes of every chapter into the intro's chapter map (book/intro.md).
+"""Write each chapter's reading time and measured cold / warm minutes into the intro's chapter map (book/intro.md).
 
 The times come from two files that the build records (commit them after a measured build):
 
@@ -6,7 +6,8 @@ The times come from two files that the build records (commit them after a measur
     motionlab book execute --record    ->  book/data/build_times/<profile>.json            (per chapter)
 
 Warm is a chapter's execution with its models cached; cold adds the training of the models it is the first to
-load (see ``motionlab.build.book_models.chapter_costs``). ``--check`` only reports whether the intro is up to date
+load (see ``motionlab.build.book_models.chapter_costs``). The reading time is counted from the notebook itself
+(:func:`reading_minutes`). ``--check`` only reports whether the intro is up to date
 (a test runs it, so the map cannot drift from the recorded measurements).
 
     python tools/chapter_map.py [--profile laptop] [--check]
@@ -23,8 +24,38 @@ from pathlib import Path
 from motionlab.build.book_models import chapter_costs
 
 ROOT = Path(__file__).resolve().parent.parent
-HEADER = "| # | chapter | builds | needs | cold / warm (min) |"
+HEADER = "| # | chapter | builds | needs | read (min) | cold / warm (min) |"
 _ROW = re.compile(r"^\| (\d\d) \| \[[^\]]*\]\(\.\./notebooks/(\w+)\.ipynb\) \|")
+PROSE_WORDS_PER_MIN = 200  # an ordinary reading pace for technical prose
+CODE_LINES_PER_MIN = 15  # code is read line by line, slower than prose
+# cells the rendered page folds or removes: a reader does not read them on the way through
+_FOLDED = {"hide-input", "remove-input", "hide-cell", "remove-cell", "parameters"}
+
+
+def reading_minutes(notebook: dict) -> float:
+    """Minutes to read a chapter: its prose at 200 words a minute plus the code it shows at 15 lines a minute.
+
+    ``notebook`` is the notebook's JSON. Code cells the page folds or removes do not count, nor do outputs,
+    figures or the library source a chapter shows with ``book.show_source``: a floor for a first reading.
+    """
+
+    def text(cell: dict) -> str:
+        source = cell.get("source", "")
+        return "".join(source) if isinstance(source, list) else source
+
+    words = lines = 0
+    for cell in notebook.get("cells", []):
+        if cell.get("cell_type") == "markdown":
+            words += len(text(cell).split())
+        elif cell.get("cell_type") == "code" and not _FOLDED & set(cell.get("metadata", {}).get("tags", [])):
+            lines += sum(1 for line in text(cell).splitlines() if line.strip() and not line.lstrip().startswith("#"))
+    return words / PROSE_WORDS_PER_MIN + lines / CODE_LINES_PER_MIN
+
+
+def load_reading(root: Path, chapters: list[str]) -> dict[str, float]:
+    """``{chapter: reading minutes}`` of the notebooks ``notebooks/<chapter>.ipynb`` under ``root``."""
+    folder = root / "notebooks"
+    return {c: reading_minutes(json.loads((folder / f"{c}.ipynb").read_text())) for c in chapters}
 
 
 def load_costs(root: Path, profile: str) -> dict[str, tuple[float, float]]:
@@ -39,18 +70,24 @@ def _minutes(seconds: float) -> str:
     return f"{seconds / 60:.1f}"
 
 
-def render(intro: str, costs: dict[str, tuple[float, float]]) -> str:
-    """``intro`` with the chapter map's last column set from ``costs`` (chapters without a time get "—")."""
+def render(intro: str, costs: dict[str, tuple[float, float]], reading: dict[str, float] | None = None) -> str:
+    """``intro`` with the chapter map's last two columns set from ``reading`` (minutes) and ``costs`` (seconds);
+    a chapter without a time gets "—". A map that has no reading column yet gets one."""
+    reading = reading or {}
     lines, in_map = intro.splitlines(), False
     for i, line in enumerate(lines):
         if line.startswith("| # | chapter |"):
             lines[i], in_map = HEADER, True
             continue
+        if in_map and line.startswith("|---"):
+            lines[i] = "|---" * (HEADER.count("|") - 1) + "|"
+            continue
         match = _ROW.match(line) if in_map else None
         if match:
             cells = line.rstrip().rstrip("|").split(" | ")
-            cost = costs.get(match.group(2))
-            cells[-1] = f"{_minutes(cost[0])} / {_minutes(cost[1])}" if cost else "—"
+            cost, read = costs.get(match.group(2)), reading.get(match.group(2))
+            cells = cells[:4] + [f"{max(1, round(read))}" if read is not None else "—"]
+            cells.append(f"{_minutes(cost[0])} / {_minutes(cost[1])}" if cost else "—")
             lines[i] = " | ".join(cells) + " |"
         elif in_map and not line.startswith("|"):
             in_map = False
@@ -64,17 +101,19 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     intro_path = ROOT / "book" / "intro.md"
     intro = intro_path.read_text()
-    updated = render(intro, load_costs(ROOT, args.profile))
+    chapters = [m.group(2) for m in map(_ROW.match, intro.splitlines()) if m]
+    updated = render(intro, load_costs(ROOT, args.profile), load_reading(ROOT, chapters))
     if args.check:
         if updated != intro:
             print(
-                "book/intro.md's chapter map differs from the recorded build times: run tools/chapter_map.py",
+                "book/intro.md's chapter map differs from the notebooks' reading times or the recorded build times: "
+                "run tools/chapter_map.py",
                 file=sys.stderr,
             )
             return 1
         return 0
     intro_path.write_text(updated)
-    print(f"chapter map updated from the {args.profile} build times")
+    print(f"chapter map updated from the notebooks and the {args.profile} build times")
     return 0
 
 

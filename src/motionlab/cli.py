@@ -1,7 +1,10 @@
-"""The ``motionlab`` command line. Thin: it parses arguments, then calls the library.
+"""Generate motion from text, train and evaluate the models of the motionlab book (DisCoRD and M2D2M).
 
-Only subcommands whose component exists are listed; more arrive with their components.
+The first line above is what ``motionlab --help`` shows a user; see :data:`EPILOG` for its examples.
 """
+
+# For developers: this module stays thin. It parses arguments, checks them before any work, then calls the library
+# (every number it prints comes from a library function the chapters call too).
 
 from __future__ import annotations
 
@@ -10,9 +13,58 @@ import contextlib
 import json
 import os
 import sys
+import textwrap
 import time
 import warnings
 from pathlib import Path
+
+EPILOG = """examples:
+  motionlab generate "a person waves" --profile smoke --out wave.html   # seconds; then open wave.html
+  motionlab generate "a person walks" "a person jumps" --out two.html  # two actions joined (Two-Phase Sampling)
+  motionlab train book --jobs 2                                         # every model the book's chapters load
+  motionlab evaluate reconstruction --decoder discord                   # DisCoRD's Table 1 on the book's data
+
+Every subcommand has its own --help. The book (make book, then _build/html/index.html; or jupyter lab notebooks/)
+explains each model and table; its chapter 98 covers the papers' sizes, real datasets and released checkpoints."""
+
+
+class _HelpFormatter(argparse.HelpFormatter):
+    """Help that states every option's default and keeps indented example lines as written.
+
+    An option whose help does not already say its default gets ``(default: VALUE)`` appended; flags (off unless
+    given) and options without a default value are left alone. Paragraphs whose lines start with spaces (the
+    examples) are not re-wrapped; the rest wraps to the terminal as usual.
+    """
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        # `is`, not `in`: a default of 0 equals False but is a value worth showing
+        quiet = action.default is None or action.default is argparse.SUPPRESS or isinstance(action.default, bool)
+        if "default" in text.lower() or quiet or not action.option_strings:
+            return text
+        value = " ".join(map(str, action.default)) if isinstance(action.default, list) else "%(default)s"
+        return f"{text} (default: {value})" if text else f"(default: {value})"
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        paragraphs = text.split("\n\n")
+        filled = []
+        for paragraph in paragraphs:
+            lines = paragraph.splitlines()
+            if len(lines) > 1 and all(line.startswith("  ") for line in lines[1:]):
+                filled.append("\n".join(indent + line for line in lines))  # a heading and its examples
+            else:
+                filled.append(
+                    textwrap.fill(" ".join(paragraph.split()), width, initial_indent=indent, subsequent_indent=indent)
+                )
+        return "\n\n".join(filled)
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser with :class:`_HelpFormatter`; ``add_subparsers`` makes every subcommand one too."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", _HelpFormatter)
+        super().__init__(*args, **kwargs)
 
 
 def _data_check(args: argparse.Namespace) -> int:
@@ -135,6 +187,11 @@ def _train_book(args: argparse.Namespace, flow_options: dict) -> int:
     _check_cache_writable()
     profile = args.settings.profile
     plan = book_jobs(profile)
+    if profile == "laptop":  # what the whole build costs, from the one record the README and the intro quote
+        from .build.build_times import cold_build_line
+
+        if line := cold_build_line():
+            print(f"for scale: {line}", flush=True)
     try:
         results = run_plan(plan, workers=jobs)
     except KeyboardInterrupt:
@@ -270,6 +327,8 @@ def _trained_model(
 def _generate(args: argparse.Namespace) -> int:
     from .diffusion.pipeline import text_to_motion_for_dataset
     from .io import save_motion
+    from .io.provenance import motion_provenance
+    from .train.device import get_device
 
     texts = [t.strip() for t in args.texts]
     if not all(texts):
@@ -298,8 +357,45 @@ def _generate(args: argparse.Namespace) -> int:
 
         generator = MultiMotionGenerator.from_pipeline(pipe, decoder=decoder)
         features = generator.generate(texts, lengths, method="tps", seed=args.seed, T_s=args.T_s)[0].features
-    print(save_motion(features, args.out, title=" / ".join(texts)))
+    record = motion_provenance(
+        texts,
+        profile,
+        args.seed,
+        ["t2m/dynamic", "tokenizer/vq"] + (["discord/vq"] if args.decoder == "discord" else []),
+        decoder=args.decoder,
+        lengths=" ".join(str(n) for n in lengths),
+        T_s=args.T_s,
+        data=args.data or "embedded",
+        precision=args.settings.resolved_precision(get_device(args.device)),
+    )
+    written = save_motion(features, args.out, title=" / ".join(texts), provenance=record)
+    print(written)  # the path alone on stdout, for scripts; what to do with it goes to stderr
+    for line in _after_generate(written, profile):
+        print(line, file=sys.stderr)
     return 0
+
+
+def _after_generate(path: Path, profile: str) -> list[str]:
+    """What a reader does next with the file ``generate`` wrote, and, under ``smoke``, what its motion is worth."""
+    suffix = path.suffix.lower()
+    if suffix in (".html", ".htm"):
+        lines = [f"open {path} in a browser (it needs no network); how it was made is listed under the animation"]
+    elif suffix == ".bvh":
+        lines = [
+            f"import {path} into Blender (File > Import > Motion Capture (.bvh)) or any BVH viewer; "
+            f"how it was made is in {path.name}.json"
+        ]
+    else:
+        lines = [
+            f"{path} holds HumanML3D features (frames x 263); `motionlab convert {path} {path.stem}.html` draws "
+            f"them; how it was made is in {path.name}.json"
+        ]
+    if profile == "smoke":
+        lines.append(
+            "note: smoke models train for seconds, so this motion only shows that the code runs; "
+            "without --profile smoke the laptop models train once (minutes) and move like the text"
+        )
+    return lines
 
 
 def _announce_training(profile: str, models: list[str], data: str | None = None, flow_options: dict | None = None):
@@ -490,13 +586,15 @@ def _add_flow_training_options(parser: argparse.ArgumentParser) -> None:
         dest="prediction",
         choices=["v", "x"],
         default=None,
-        help="DisCoRD: the network predicts the velocity (v, the paper's) or the clean motion (x)",
+        help="DisCoRD: the network predicts the velocity (v, the paper's) or the clean motion (x) (default: the "
+        "profile's: x in laptop, v in smoke and full)",
     )
     parser.add_argument(
         "--normalization",
         choices=["std", "feat_bias"],
         default=None,
-        help="DisCoRD: plain std, or the public code's root/contact weighting (feat_bias)",
+        help="DisCoRD: plain std, or the public code's root/contact weighting (feat_bias) (default: the profile's: "
+        "std in laptop, feat_bias in smoke and full)",
     )
     parser.add_argument(
         "--time-distribution",
@@ -531,7 +629,9 @@ def _add_evaluate(sub) -> None:
     flow.add_argument("--solver", default=None, help="DisCoRD ODE solver: euler or midpoint (default: its config's)")
     sampling = argparse.ArgumentParser(add_help=False)
     sampling.add_argument("--num-steps", type=int, default=None, help="diffusion sampling steps (default: all T)")
-    sampling.add_argument("--guidance-scale", type=float, default=None, help="classifier-free guidance s")
+    sampling.add_argument(
+        "--guidance-scale", type=float, default=None, help="classifier-free guidance s (default: 4, M2D2M's)"
+    )
 
     evaluate = sub.add_parser(
         "evaluate",
@@ -718,7 +818,7 @@ def _settings(args: argparse.Namespace):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="motionlab", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="motionlab", description=__doc__.splitlines()[0], epilog=EPILOG)
     parser.add_argument(
         "--threads",
         type=int,
@@ -761,7 +861,7 @@ def build_parser() -> argparse.ArgumentParser:
     data_sub = data.add_subparsers(dest="data_command", required=True)
 
     check = data_sub.add_parser("check", help="validate a HumanML3D/KIT-ML folder and list what is missing")
-    check.add_argument("path", type=Path)
+    check.add_argument("path", type=Path, help="the dataset folder (new_joint_vecs/, texts/, train.txt, Mean.npy, ...)")
     check.set_defaults(func=_data_check)
 
     make = data_sub.add_parser("make-embedded", help="generate the embedded procedural dataset")
@@ -771,7 +871,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="dataset size (default: $MOTIONLAB_PROFILE or laptop)",
     )
-    make.add_argument("--seed", type=int, default=0)
+    make.add_argument("--seed", type=int, default=0, help="seeds the procedural clips and their split")
     make.add_argument("--out", type=Path, default=None, help="write here instead of the cache (must not exist)")
     make.add_argument("--clips", type=int, default=None, help="number of clips (needs --out)")
     make.set_defaults(func=_data_make_embedded)
@@ -912,10 +1012,16 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument(
         "--T-s", dest="T_s", type=int, default=None, help="TPS switch step, with two or more texts (default: 0.9 T)"
     )
-    gen.add_argument("--seed", type=int, default=0)
-    gen.add_argument("--profile", choices=["smoke", "laptop", "full"], default=None)
+    gen.add_argument("--seed", type=int, default=0, help="seeds the sampling: the same seed gives the same motion")
+    gen.add_argument(
+        "--profile",
+        choices=["smoke", "laptop", "full"],
+        default=None,
+        help="model size: smoke trains in seconds and only shows that the code runs, laptop in minutes on a CPU "
+        "(once, then cached), full is the papers' (default: $MOTIONLAB_PROFILE or laptop)",
+    )
     gen.add_argument("--data", default=None, help="a HumanML3D/KIT-ML folder (default: the embedded dataset)")
-    gen.add_argument("--device", default=None)
+    gen.add_argument("--device", default=None, help="cpu, cuda, cuda:1 ... (default: CUDA when present)")
     gen.set_defaults(func=_generate)
 
     convert = sub.add_parser(

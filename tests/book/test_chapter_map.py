@@ -63,7 +63,7 @@ def test_the_intro_shows_the_recorded_laptop_times():
     )
     assert check.returncode == 0, check.stderr
     intro = (ROOT / "book" / "intro.md").read_text()
-    assert "| # | chapter | builds | needs | cold / warm (min) |" in intro
+    assert "| # | chapter | builds | needs | read (min) | cold / warm (min) |" in intro
 
 
 def test_recording_training_times_keeps_the_entries_of_cached_models(tmp_path):

@@ -1,9 +1,12 @@
+import json
+import re
 import subprocess
 import sys
 
 import numpy as np
 
 from motionlab.cli import main
+from motionlab.io import read_bvh
 from motionlab.representation import Normalizer
 
 
@@ -87,11 +90,26 @@ def test_generate_single_and_multi_action(tmp_path, isolated_cache, capsys):
     out = tmp_path / "wave.npy"
     assert main(["generate", "a person waves", "--length", "40", "--out", str(out), *common]) == 0
     assert np.load(out).shape == (40, 263)
+    printed = capsys.readouterr()
+    assert printed.out.splitlines()[-1] == str(out)  # the path alone on stdout, for scripts
+    assert f"motionlab convert {out} wave.html" in printed.err and "only shows that the code runs" in printed.err
     two = tmp_path / "two.bvh"
     texts = ["a person walks", "a person jumps"]
-    assert main(["generate", *texts, "--length", "40", "32", "--out", str(two), *common]) == 0
-    assert two.read_text().startswith("HIERARCHY")
-    capsys.readouterr()
+    assert main(["generate", *texts, "--length", "40", "32", "--seed", "3", "--out", str(two), *common]) == 0
+    assert two.read_text().startswith("HIERARCHY")  # no comment before HIERARCHY: BVH readers stop there
+    assert read_bvh(two).n_frames > 0  # nothing after the frames either: the file parses as before
+    assert "into Blender" in capsys.readouterr().err
+    made = json.loads((tmp_path / "two.bvh.json").read_text())
+    assert made["text"] == "a person walks / a person jumps" and made["profile"] == "smoke" and made["seed"] == "3"
+    assert made["models"] == "t2m/dynamic, tokenizer/vq" and made["lengths"] == "40 32"
+    assert made["code"].startswith(("commit ", "motionlab "))
+    page = tmp_path / "wave.html"
+    assert main(["generate", "a person waves", "--length", "40", "--out", str(page), *common]) == 0
+    assert f"open {page} in a browser" in capsys.readouterr().err
+    html = page.read_text()
+    payload = json.loads(re.search(r'id="motion-data">(.*?)</script>', html, flags=re.S).group(1))
+    assert payload["provenance"]["text"] == "a person waves" and payload["provenance"]["seed"] == "0"
+    assert "<dt>profile</dt><dd>smoke</dd>" in html and "<dt>models</dt>" in html
     assert main(["generate", "a person waves", "--length", "42", "--out", str(tmp_path / "bad.npy"), *common]) == 2
     assert "multiples of 4" in capsys.readouterr().err and not (tmp_path / "bad.npy").exists()
     assert main(["generate", "a", "b", "--length", "40", "40", "40", "--out", str(tmp_path / "x.npy"), *common]) == 2

@@ -18,7 +18,7 @@ def empty_home(tmp_path, monkeypatch):
 def test_generate_on_an_empty_cache_announces_every_model_in_order(empty_home, capsys):
     cli._announce_training("laptop", ["t2m/dynamic", "discord/vq"])
     err = capsys.readouterr().err
-    assert err.startswith("note: to train first (4 models")
+    assert err.startswith("note: training 4 models first: about")
     assert err.index("data") < err.index("tokenizer/vq") < err.index("discord/vq") < err.index("t2m/dynamic")
     expected = (
         ESTIMATES_S["laptop"]["data"]
@@ -26,7 +26,8 @@ def test_generate_on_an_empty_cache_announces_every_model_in_order(empty_home, c
         + ESTIMATES_S["laptop"]["discord_short"]  # discord/vq: the short budget
         + ESTIMATES_S["laptop"]["t2m"]
     ) / 60
-    assert f"{expected:.1f} min of CPU" in err and "add --profile smoke" in err
+    assert f"first: about {expected:.1f} min (" in err and "add --profile smoke" in err
+    assert err.count(f"{expected:.1f} min") == 1  # one worker: one number, not the same one twice
     assert not list(empty_home.rglob("*.npy")), "announcing must not generate or train anything"
 
 
@@ -88,5 +89,5 @@ def test_reusing_the_probe_still_announces_every_missing_model(empty_home, capsy
     with cli._probe_then_run():
         cli._announce_training("smoke", ["tokenizer/rvq", "evaluator", "discord/rvq"])
     err = capsys.readouterr().err
-    assert err.startswith("note: to train first (4 models") and "discord/rvq" in err
+    assert err.startswith("note: training 4 models first: about") and "discord/rvq" in err
     assert not list(empty_home.rglob("*.npy")), "announcing must not generate or train anything"

@@ -50,7 +50,7 @@ def test_the_cli_prints_table_1_of_the_released_models_with_the_paper_beside(
     out, err = capsys.readouterr()
     assert "MoMask RVQ-VAE (released) decoder" in out and "MoMask RVQ-VAE (released) tokens + DisCoRD (released)" in out
     assert "paper, HumanML3D: MoMask + DisCoRD" in out and "zero-padded to 196 frames" in out
-    assert "reconstruction cost:" in err and "GFLOP per clip" in err and "to train first" not in err
+    assert "reconstruction cost:" in err and "GFLOP per clip" in err and "models first" not in err
     assert not (tmp_path / "home" / "models").exists()
     table = json.loads((tmp_path / "t1.json").read_text())
     assert table["config"]["decoder"].startswith("discord:") and table["counts"]["clips"] == 8

@@ -35,7 +35,7 @@ def test_jobs_run_after_their_inputs_and_cached_ones_are_skipped(tmp_path):
     results = run_plan(jobs, workers=2, out=log, line_every_s=0.5)
     assert [r.status for r in results] == ["trained", "trained", "trained", "cached"]
     assert b.read_text() == c.read_text() == "A" and d.read_text() == "from an earlier run"
-    assert "to train first (3 models" in log.getvalue() and "b: done" in log.getvalue()
+    assert "training 3 models first: about" in log.getvalue() and "b: done" in log.getvalue()
     assert "3 trained" in results_table(results)
     assert run_plan(jobs, workers=2, out=log) and all(r.status == "cached" for r in run_plan(jobs, out=log))
 
@@ -65,7 +65,9 @@ def test_plan_checks_and_estimates():
         Job("z", print, ("data",), 30),
     ]
     assert expected_wall_seconds(jobs, 1) == 200 and expected_wall_seconds(jobs, 2) == 110
-    assert "4 models" in plan_line(jobs, 2) and "about 1.8 min with 2 workers" in plan_line(jobs, 2)
+    assert plan_line(jobs, 2).startswith("training 4 models first: about 1.8 min with 2 workers, 3.3 min of CPU (")
+    alone = plan_line(jobs, 1)  # one worker: the wall time is the CPU time, said once
+    assert alone.startswith("training 4 models first: about 3.3 min (") and alone.count("min") == 1
     assert plan_line([Job("a", print, is_cached=lambda: True)]) == ""
 
 

@@ -276,7 +276,7 @@ def test_the_plan_line_says_which_precision_trains(monkeypatch):
 
     monkeypatch.setenv("MOTIONLAB_PRECISION", "bf16")
     line = plan_line([Job("m", lambda: None, (), 60.0, lambda: False)])
-    assert line.startswith("to train first (1 model in bf16, asked for;")
+    assert line.startswith("training 1 model first: about 1.0 min (bf16, asked for;")
 
 
 def test_bf16_plans_use_the_measured_speedups(monkeypatch):

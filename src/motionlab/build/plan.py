@@ -87,21 +87,25 @@ def plan_line(jobs: Sequence[Job], workers: int = 1) -> str:
 
 
 def _describe(todo: Sequence[Job], workers: int) -> str:
-    """The plan line for jobs already known to be missing (each cache check loads models: done once)."""
+    """The plan line for jobs already known to be missing (each cache check loads models: done once).
+
+    It leads with what a reader waits for, the wall time, and gives the CPU minutes only when they differ from it
+    (several workers), e.g. ``training 3 models first: about 0.5 min (fp32, ...): data, tokenizer/vq, t2m/dynamic``.
+    """
     if not todo:
         return ""
     total = sum(job.estimate_s for job in todo)
     wall = expected_wall_seconds(todo, workers)
     names = ", ".join(job.name for job in todo)
-    when = f"about {format_minutes(wall)}" + (f" with {workers} workers" if workers > 1 else "")
+    when = f"about {format_minutes(wall)}"
+    if workers > 1:
+        when += f" with {workers} workers, {format_minutes(total)} of CPU"
     from ..precision import explain_precision
     from ..train.device import get_device
 
     precision, why = explain_precision(None, get_device(None))
-    return (
-        f"to train first ({len(todo)} model{'s' if len(todo) != 1 else ''} in {precision}, {why}; "
-        f"{format_minutes(total)} of CPU at the pace of the slowest CPU measured, {when}): {names}"
-    )
+    count = f"{len(todo)} model{'s' if len(todo) != 1 else ''}"
+    return f"training {count} first: {when} ({precision}, {why}; at the pace of the slowest CPU measured): {names}"
 
 
 def expected_wall_seconds(jobs: Sequence[Job], workers: int) -> float:

@@ -21,6 +21,7 @@ from .bvh_export import save_bvh
 from .bvh_import import bvh_to_joints, fill_degenerate_joints
 from .common import as_joints, checked_features, save_npy_atomic, warn
 from .html import save_html_animation
+from .provenance import write_sidecar
 
 MOTION_SUFFIXES = (".bvh", ".html", ".htm", ".npy")
 
@@ -40,21 +41,29 @@ def save_motion(
     title: str | None = None,
     unit: str = "m",
     rotation_order: str = "ZYX",
+    provenance: Mapping[str, str] | None = None,
 ) -> Path:
     """Write a motion (joints ``(T, 22, 3)`` in metres or features ``(T, 263)``) in the format of ``path``.
 
     ``.bvh``: :func:`~motionlab.io.bvh_export.save_bvh` (``unit``, ``rotation_order``); ``.html``/``.htm``:
     :func:`~motionlab.io.html.save_html_animation` (``title``, default the file name); ``.npy``: HumanML3D
     features ``(T-1, 263)`` (features are written as given, joints go through ``joints_to_features``).
-    Every file is written through a temporary file and ``os.replace``.
+    Every file is written through a temporary file and ``os.replace``. ``provenance`` (how the motion was made,
+    :func:`~motionlab.io.provenance.motion_provenance`) goes into the HTML page, or into a sidecar
+    ``<file>.json`` beside a ``.bvh``/``.npy`` (neither format has room for it that every reader skips).
     """
     path = Path(path)
     suffix = _suffix(path, MOTION_SUFFIXES, "output")
-    if suffix == ".bvh":
-        return save_bvh(motion, path, fps=fps, unit=unit, rotation_order=rotation_order)
     if suffix in (".html", ".htm"):
-        return save_html_animation(motion, path, title=path.stem if title is None else title, fps=fps)
-    return save_npy_atomic(path, _as_features(motion))
+        title = path.stem if title is None else title
+        return save_html_animation(motion, path, title=title, fps=fps, provenance=provenance)
+    if suffix == ".bvh":
+        written = save_bvh(motion, path, fps=fps, unit=unit, rotation_order=rotation_order)
+    else:
+        written = save_npy_atomic(path, _as_features(motion))
+    if provenance:
+        write_sidecar(written, provenance)
+    return written
 
 
 def _as_features(motion) -> np.ndarray:

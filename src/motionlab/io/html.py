@@ -15,6 +15,7 @@ from __future__ import annotations
 import html as html_lib
 import json
 import os
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +36,9 @@ _PAGE = """<!DOCTYPE html>
   .controls { margin-top: 0.6em; display: flex; gap: 0.8em; align-items: center; flex-wrap: wrap; }
   .controls input[type=range] { width: 220px; }
   #label { font-variant-numeric: tabular-nums; }
+  .provenance { margin-top: 1em; font-size: 0.85em; color: #555; }
+  .provenance dt { float: left; clear: left; width: 5em; font-weight: 600; }
+  .provenance dd { margin-left: 5.5em; }
 </style>
 </head>
 <body>
@@ -46,7 +50,7 @@ _PAGE = """<!DOCTYPE html>
   <span id="label"></span>
   <label>view <input id="azimuth" type="range" min="-180" max="180" value="-35"></label>
 </div>
-<script type="application/json" id="motion-data">__DATA__</script>
+__PROVENANCE__<script type="application/json" id="motion-data">__DATA__</script>
 <script>
 (function () {
   "use strict";
@@ -148,8 +152,28 @@ def _bones_and_colors(sk: Skeleton) -> tuple[list[list[int]], list[str]]:
     return bones, colors
 
 
-def html_animation(joints, title: str = "motion", fps: float = 20.0, skeleton: str | Skeleton | None = None) -> str:
-    """The text of a standalone HTML page animating ``joints`` ``(T, J, 3)`` (or features ``(T, 263|251)``)."""
+def _provenance_html(provenance: Mapping[str, str] | None) -> str:
+    # a definition list under the controls: how the motion was made, readable without opening the source
+    if not provenance:
+        return ""
+    rows = "".join(
+        f"  <dt>{html_lib.escape(str(k))}</dt><dd>{html_lib.escape(str(v))}</dd>\n" for k, v in provenance.items()
+    )
+    return f'<dl class="provenance" id="provenance">\n{rows}</dl>\n'
+
+
+def html_animation(
+    joints,
+    title: str = "motion",
+    fps: float = 20.0,
+    skeleton: str | Skeleton | None = None,
+    provenance: Mapping[str, str] | None = None,
+) -> str:
+    """The text of a standalone HTML page animating ``joints`` ``(T, J, 3)`` (or features ``(T, 263|251)``).
+
+    ``provenance`` (e.g. :func:`motionlab.io.provenance.motion_provenance`) is shown under the animation and kept
+    in the page's JSON payload under ``"provenance"``.
+    """
     positions, sk = as_joints(joints, skeleton, name="joints")
     if not isinstance(title, str):
         raise ValueError(f"title must be a str, got {type(title).__name__}")
@@ -165,10 +189,13 @@ def html_animation(joints, title: str = "motion", fps: float = 20.0, skeleton: s
         "colors": colors,
         "joints": metres.tolist(),
     }
+    if provenance:
+        payload["provenance"] = {str(k): str(v) for k, v in provenance.items()}
     # "<" never appears raw inside the <script> element, so no data can close it early.
     data = json.dumps(payload, separators=(",", ":")).replace("<", "\\u003c")
     # Data first, so a title that happens to contain "__DATA__" stays text.
-    return _PAGE.replace("__DATA__", data).replace("__TITLE__", html_lib.escape(title))
+    page = _PAGE.replace("__DATA__", data)
+    return page.replace("__PROVENANCE__", _provenance_html(provenance)).replace("__TITLE__", html_lib.escape(title))
 
 
 def save_html_animation(
@@ -177,9 +204,10 @@ def save_html_animation(
     title: str = "motion",
     fps: float = 20.0,
     skeleton: str | Skeleton | None = None,
+    provenance: Mapping[str, str] | None = None,
 ) -> Path:
     """Write :func:`html_animation` to ``path`` (``.html``/``.htm``) atomically; returns the path."""
     path = Path(path)
     if path.suffix.lower() not in (".html", ".htm"):
         raise ValueError(f"path must end in .html or .htm, got {str(path)!r}")
-    return write_text_atomic(path, html_animation(joints, title, fps, skeleton))
+    return write_text_atomic(path, html_animation(joints, title, fps, skeleton, provenance))
