@@ -12,10 +12,10 @@ from types import SimpleNamespace
 import pytest
 
 from motionlab import models
-from motionlab.build import book_models
-from motionlab.build.book_models import book_dataset, book_jobs, projection_config
+from motionlab.build.book_models import book_jobs
 from motionlab.cli import _trained_model
 from motionlab.diffusion.training import PAPER_ETA
+from motionlab.models import book_dataset, projection_config
 from motionlab.multimotion import MULTI_MOTION_ETA
 from motionlab.sizes import DISCORD_ABLATION, DISCORD_VQ
 from motionlab.train import cache
@@ -107,7 +107,7 @@ class _Verbs:
 )
 def test_every_plan_job_makes_the_calls_it_made_before_models_load(monkeypatch, profile, seed, flow):
     datasets = {}
-    monkeypatch.setattr(book_models, "_dataset", lambda *key: datasets.setdefault(key, SimpleNamespace(key=key)))
+    monkeypatch.setattr(models, "_dataset", lambda *key: datasets.setdefault(key, SimpleNamespace(key=key)))
     verbs = _Verbs(monkeypatch)
     jobs = [job for job in book_jobs(profile, seed, flow_options=flow) if job.name != "data"]
     assert len(jobs) == len(book_jobs(profile)) - 1
@@ -119,7 +119,7 @@ def test_every_plan_job_makes_the_calls_it_made_before_models_load(monkeypatch, 
 
 def test_plan_recipes_go_through_models_load(monkeypatch):
     seen = []
-    monkeypatch.setattr(book_models, "_dataset", lambda *key: SimpleNamespace(key=key))
+    monkeypatch.setattr(models, "_dataset", lambda *key: SimpleNamespace(key=key))
     monkeypatch.setattr(models, "load", lambda name, dataset, profile, **kw: seen.append((name, dataset, kw)))
     jobs = {job.name: job for job in book_jobs("smoke", flow_options={"prediction": "x"})}
     for job in jobs.values():

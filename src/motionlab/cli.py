@@ -417,7 +417,7 @@ def _announce_training(profile: str, models: list[str], data: str | None = None,
 def _probe_then_run():
     """Around a command's :func:`_announce_training` and its work: what the plan probe loaded (the dataset,
     the cached models) is what the command uses, so nothing is read and verified twice."""
-    from .build.book_models import forget_book_datasets
+    from .models import forget_book_datasets
     from .train.cache import reuse_probed_models
 
     forget_book_datasets()  # the dataset as it is now, not one an earlier call in this process left in memory
@@ -428,7 +428,7 @@ def _probe_then_run():
 def _command_dataset(data: str | None, profile: str):
     """The command's dataset (seed 0, as ``load_dataset``'s default): inside :func:`_probe_then_run`, the
     instance the plan probe loaded, else loaded now (as it is when the probe failed or was skipped)."""
-    from .build.book_models import book_dataset
+    from .models import book_dataset
 
     return book_dataset(profile, 0, data)
 

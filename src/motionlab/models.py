@@ -36,6 +36,7 @@ is not cached is an error instead (the chapters only load).
 from __future__ import annotations
 
 import re
+from functools import lru_cache
 from typing import Any
 
 from motionlab.profiles import get_profile
@@ -72,8 +73,6 @@ def _discord(variant: str, dataset, profile: str, seed: int, device, overrides: 
         tokens, projection, seed = chain.group(1), "", chain_seed or seed
     tokenizer = _tokenizer(tokens, dataset, profile, device, chain_seed)
     if projection:
-        from motionlab.build.book_models import projection_config
-
         config = projection_config(profile, tokenizer, projection, seed, **overrides)
     else:  # the VQ tokens' decoder has its own, smaller laptop decoder (sizes.DISCORD_VQ says why)
         budget = DISCORD_VQ.get(profile, {}) if tokens == "vq" else {}
@@ -150,8 +149,6 @@ def load(
         config = toy_flow_config(profile, distribution="ring", conditional=variant.endswith("conditional"), seed=seed)
         return train_or_load_toy_flow(config, profile=profile)
     if dataset is None:
-        from motionlab.build.book_models import book_dataset
-
         dataset = book_dataset(profile, seed)
     if kind == "data":
         return dataset
@@ -170,4 +167,41 @@ def load(
     raise ValueError(f"unknown model {name!r}; the names are listed in motionlab.models' docstring")
 
 
-__all__ = ["load"]
+# -- the data and configs the book's models are trained on ----------------------------------------------------
+@lru_cache(maxsize=4)
+def _dataset(profile: str, seed: int, data: str | None, home: str):
+    # ``home`` (the cache root) is only part of the key: the embedded dataset lives there
+    from motionlab.data import load_dataset
+
+    return load_dataset(data, profile=profile, seed=seed)
+
+
+def book_dataset(profile: str, seed: int = 0, data: str | None = None):
+    """The dataset the recipes train on, loaded once per process for each profile, seed, folder and cache root.
+
+    The plan's cache checks run every recipe, so they share one loaded dataset; a command that checks its plan
+    first and then does its work (``motionlab evaluate``, ``generate``, ``train``) uses that same instance.
+    :func:`forget_book_datasets` drops them (e.g. when the dataset's folder was rewritten meanwhile).
+    """
+    from motionlab.paths import cache_dir
+
+    return _dataset(profile, seed, data, str(cache_dir()))
+
+
+def forget_book_datasets() -> None:
+    """Drop the datasets :func:`book_dataset` holds: the next call reads its folder again."""
+    _dataset.cache_clear()
+
+
+# Training steps of chapter 04's projection ablation, where they differ from the profile's DisCoRD decoder.
+def projection_config(profile: str, tokenizer, projection: str = "stacked", seed: int = 0, **overrides):
+    """The DisCoRD config of chapter 04's ablation: chapter 05's decoder with the projection changed and, in the
+    laptop profile, the smaller ablation budget (``DISCORD_ABLATION`` in :mod:`motionlab.sizes`)."""
+    from motionlab.flow import discord_config
+    from motionlab.sizes import DISCORD_ABLATION
+
+    budget = DISCORD_ABLATION.get(get_profile(profile), {})
+    return discord_config(profile, tokenizer=tokenizer, projection=projection, seed=seed, **{**budget, **overrides})
+
+
+__all__ = ["book_dataset", "forget_book_datasets", "load", "projection_config"]

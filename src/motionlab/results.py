@@ -42,6 +42,7 @@ from motionlab.report.store import (
     Result,
     load_all,
     record,
+    record_table,
     results_dir,
 )
 
@@ -89,6 +90,7 @@ __all__ = [
     "load_spread",
     "quantity",
     "record",
+    "record_table",
     "results_dir",
     "repeat_check",
     "spread_table",

@@ -108,8 +108,8 @@ def test_budget_curves_and_their_figure(study_folder):
     import matplotlib
 
     matplotlib.use("Agg")
+    from motionlab.report import plot_budget
     from motionlab.report.budget import budget_curves
-    from motionlab.viz import plot_budget
 
     study = load_budget("laptop", study_folder)
     curves = budget_curves(study, ["tps/jerk_tps", "diffusion/fid_guided"])
@@ -128,7 +128,7 @@ def test_budgets_in_another_precision_are_labelled_with_it(study_folder):
     import matplotlib
 
     matplotlib.use("Agg")
-    from motionlab.viz import plot_budget
+    from motionlab.report import plot_budget
 
     study = load_budget("laptop", study_folder)
     assert study.precision(800) == "fp32" and not study.mixed_precision  # records without the field are fp32

@@ -111,8 +111,8 @@ def test_recorded_times_name_the_precision_each_model_trained_in(tmp_path, monke
 
 
 def test_chapter_04s_ablation_has_its_own_budget_where_the_profile_says_so():
-    from motionlab.build.book_models import projection_config
     from motionlab.flow import discord_config
+    from motionlab.models import projection_config
     from motionlab.sizes import DISCORD_ABLATION
 
     changed = ("projection", "train_steps", "warmup_steps", "width")

@@ -10,10 +10,11 @@ import pytest
 from scipy.special import stdtrit
 
 from motionlab import report, results
+from motionlab.comparison import Run, RunDifferences, this_build
 from motionlab.estimate import Estimate
 from motionlab.evaluation.studies import config_changes, study_configs, study_plan
 from motionlab.report.render import chapter_findings, claims_table
-from motionlab.report.spread import Run, RunDifferences, TrainingSpread, load_spread, read_spread, this_build
+from motionlab.report.spread import TrainingSpread, load_spread, read_spread
 from motionlab.results import FAILS, HOLDS, INCONCLUSIVE, Less, Result
 
 DATA = "embedded-v3-n3000-s0-abc"

@@ -138,8 +138,8 @@ def test_the_options_rows_and_columns_hold_what_the_chapter_reads(chapter_table)
 def test_the_chapters_example_decodes_are_table_1s_first_seed(chapter_table):
     from motionlab import models
     from motionlab.data import load_dataset
-    from motionlab.flow.reconstruction import ground_truth_joints, reconstructed_joints
     from motionlab.metrics import sjpe_dataset
+    from motionlab.studies.reconstruction import ground_truth_joints, reconstructed_joints
 
     evaluation, table = chapter_table
     with pytest.MonkeyPatch.context() as mp:

@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 from scipy.special import stdtrit
 
+from motionlab.comparison import Run
 from motionlab.estimate import Estimate, mean_ci
 from motionlab.evaluation.t2m import compare_arms, seed_replica
-from motionlab.report.spread import Run, TrainingSpread
+from motionlab.report.spread import TrainingSpread
 
 
 class _Table:

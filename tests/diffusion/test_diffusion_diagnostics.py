@@ -23,8 +23,9 @@ from motionlab.diffusion import (
     token_rows,
     x0_entropy,
 )
-from motionlab.diffusion.diagnostics import EntropyCurve, MarkdownTable, entropy_table, eta_distances, token_statistics
+from motionlab.diffusion.diagnostics import EntropyCurve, token_statistics
 from motionlab.estimate import Estimate
+from motionlab.studies.diffusion_diagnostics import MarkdownTable, entropy_table, eta_distances
 
 K, T = 6, 8
 ROWS = torch.tensor([[0, 0, 1, 2, 2, 2], [3, 3, -1, -1, -1, -1], [5, 4, 5, -1, -1, -1]])

@@ -12,15 +12,13 @@ from motionlab.flow import DisCoRDDecoder, discord_config
 from motionlab.flow.reconstruction import (
     ReconstructionScores,
     decode_clips,
-    ground_truth_joints,
     joints_of,
     length_batches,
-    median_example,
-    reconstructed_joints,
     reconstruction_scores,
     time_calls,
     timing_batch,
 )
+from motionlab.studies.reconstruction import ground_truth_joints, median_example, reconstructed_joints
 from motionlab.tokenizers import build_tokenizer, rvq_config
 
 
@@ -81,6 +79,7 @@ def test_pad_to_tokenises_each_clip_in_a_zero_padded_window_as_the_official_eval
 
 def test_decode_cost_counts_one_call_times_the_calls_and_times_it_here(tokenizer):
     from motionlab.flow.reconstruction import count_flops, decode_cost
+    from motionlab.studies.reconstruction import cost_table
 
     decoder = DisCoRDDecoder.from_tokenizer(tokenizer, "smoke").eval()
     ids = tokenizer.encode(torch.zeros(1, 32, 263))
@@ -93,7 +92,7 @@ def test_decode_cost_counts_one_call_times_the_calls_and_times_it_here(tokenizer
     )
     assert cost.gflop_per_cpu_second > 0
     assert cost.total_gflop(10, 2) == pytest.approx(10 * (cost.feed_forward_gflop + 2 * cost.discord_gflop))
-    table = cost.table(clips=10, discord_decodes=2)
+    table = cost_table(cost, clips=10, discord_decodes=2)
     assert table.labels == ["feed-forward decoder (one run)", "DisCoRD, 30 network calls (2 runs)"]
     assert decode_cost(tokenizer, frames=32).discord_gflop is None
     with pytest.raises(ValueError, match="multiple of 4"):

@@ -14,7 +14,6 @@ from motionlab.flow.toy import (
     build_toy_flow,
     energy_by_budget,
     energy_distance,
-    energy_table,
     flow_trajectory,
     sample_at_budget,
     sample_toy,
@@ -23,6 +22,7 @@ from motionlab.flow.toy import (
     train_or_load_toy_flow,
     train_toy_flow,
 )
+from motionlab.studies.toy_flow import energy_table
 
 
 def gen(seed: int = 0) -> torch.Generator:

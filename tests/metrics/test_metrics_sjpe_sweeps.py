@@ -10,8 +10,8 @@ from motionlab.estimate import Estimate
 from motionlab.metrics import sjpe_from_features, transition_log_jerk
 from motionlab.metrics.jerk import real_motion_log_jerk
 from motionlab.metrics.perturbations import add_frame_noise
-from motionlab.metrics.sjpe import MeasurementTable, noise_sweep, smoothing_sweep
 from motionlab.representation import Normalizer, recover_from_ric
+from motionlab.studies.sjpe_sensitivity import MeasurementTable, noise_sweep, smoothing_sweep
 
 
 @pytest.fixture(scope="module")

@@ -7,20 +7,16 @@ import torch
 from motionlab.estimate import Estimate, mean_ci
 from motionlab.metrics import sjpe_dataset
 from motionlab.representation import Normalizer
+from motionlab.studies.tokenizer_analysis import config_table, error_table, jerk_table, load_with_history, usage_table
 from motionlab.tokenizers import QuantizerEMAReset, build_tokenizer, rvq_config, vq_config
 from motionlab.tokenizers.analysis import (
     CodebookUsage,
     codebook_usage,
-    config_table,
     drifting_ring,
-    error_table,
     gaussian_ring,
-    jerk_table,
-    load_with_history,
     reconstruct_clips,
     track_codebook,
     train_toy_quantizer,
-    usage_table,
 )
 
 

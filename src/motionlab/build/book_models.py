@@ -23,10 +23,12 @@ budget. Chapter 04's three projections compare with each other, not with the fee
 from __future__ import annotations
 
 from collections.abc import Sequence
-from functools import lru_cache, partial
+from functools import partial
 
+from .. import models
+from ..models import book_dataset
 from ..profiles import get_profile
-from ..sizes import DISCORD_ABLATION, chapter_sizes
+from ..sizes import chapter_sizes
 from ..train.cache import NotCached, cache_probe
 from .plan import Job
 
@@ -99,31 +101,6 @@ def training_estimates(profile: str, precision: str) -> dict[str, float]:
 
 # -- recipes: module-level so worker processes can unpickle them --------------------------------------------------
 # Every recipe takes the profile, the data seed and ``data`` (a dataset folder; None: the embedded dataset).
-@lru_cache(maxsize=4)
-def _dataset(profile: str, seed: int, data: str | None, home: str):
-    # ``home`` (the cache root) is only part of the key: the embedded dataset lives there
-    from ..data import load_dataset
-
-    return load_dataset(data, profile=profile, seed=seed)
-
-
-def book_dataset(profile: str, seed: int = 0, data: str | None = None):
-    """The dataset the recipes train on, loaded once per process for each profile, seed, folder and cache root.
-
-    The plan's cache checks run every recipe, so they share one loaded dataset; a command that checks its plan
-    first and then does its work (``motionlab evaluate``, ``generate``, ``train``) uses that same instance.
-    :func:`forget_book_datasets` drops them (e.g. when the dataset's folder was rewritten meanwhile).
-    """
-    from ..paths import cache_dir
-
-    return _dataset(profile, seed, data, str(cache_dir()))
-
-
-def forget_book_datasets() -> None:
-    """Drop the datasets :func:`book_dataset` holds: the next call reads its folder again."""
-    _dataset.cache_clear()
-
-
 def make_data(profile: str, seed: int, data: str | None = None) -> None:
     book_dataset(profile, seed, data)
 
@@ -134,20 +111,8 @@ def make_model(profile: str, seed: int, name: str, data: str | None = None, over
     ``seed`` is the data seed and a DisCoRD decoder's or toy flow's training seed; ``overrides`` change a DisCoRD
     decoder's config. The toy flows never read motion, so they do not load the dataset.
     """
-    from .. import models  # lazy: models imports this module inside its functions
-
     dataset = None if name.startswith("toy_flow/") else book_dataset(profile, seed, data)
     models.load(name, dataset, profile, seed=seed, **(overrides or {}))
-
-
-# Training steps of chapter 04's projection ablation, where they differ from the profile's DisCoRD decoder.
-def projection_config(profile: str, tokenizer, projection: str = "stacked", seed: int = 0, **overrides):
-    """The DisCoRD config of chapter 04's ablation: chapter 05's decoder with the projection changed and, in the
-    laptop profile, the smaller ablation budget (``DISCORD_ABLATION`` in :mod:`motionlab.sizes`)."""
-    from ..flow import discord_config
-
-    budget = DISCORD_ABLATION.get(get_profile(profile), {})
-    return discord_config(profile, tokenizer=tokenizer, projection=projection, seed=seed, **{**budget, **overrides})
 
 
 # -- the plan ------------------------------------------------------------------------------------------------------
@@ -250,11 +215,11 @@ def chapter_costs(training: dict[str, dict], execution: dict[str, dict]) -> dict
     """
     seen: set[str] = set()
     costs = {}
-    for chapter, models in CHAPTER_MODELS.items():
+    for chapter, names in CHAPTER_MODELS.items():
         if chapter not in execution:
             continue
-        new = [m for m in models if m not in seen]
-        seen.update(models)
+        new = [m for m in names if m not in seen]
+        seen.update(names)
         warm = float(execution[chapter]["seconds"])
         costs[chapter] = (warm + sum(float(training.get(m, {}).get("seconds", 0.0)) for m in new), warm)
     return costs
@@ -279,13 +244,10 @@ __all__ = [
     "BF16_SPEEDUP",
     "CHAPTER_MODELS",
     "ESTIMATES_S",
-    "book_dataset",
     "book_jobs",
     "chapter_costs",
-    "forget_book_datasets",
     "is_cached",
     "job_precision",
     "jobs_for",
-    "projection_config",
     "training_estimates",
 ]

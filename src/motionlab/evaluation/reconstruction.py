@@ -10,7 +10,6 @@ import numpy as np
 
 from motionlab.estimate import Estimate, mean_ci
 from motionlab.profiles import get_profile
-from motionlab.report.claims import PAPER_NUMBERS
 
 from .common import (
     FLOW_OPTIONS,
@@ -29,6 +28,7 @@ from .common import (
     command_line,
     repeat_seed,
 )
+from .papers import PAPER_NUMBERS
 from .table import RECONSTRUCTION_METRICS, EvaluationTable
 
 GROUND_TRUTH = "Ground truth"  # the row of the real motion's own joint jerk (with ``jerk``)

@@ -319,7 +319,7 @@ class ArmsComparison:
     ``gap_label`` (``"seed 1 − seed 0"``), measured as ``gap_source`` says (paired per repeat when the table has both;
     the study's numbers, without an interval, otherwise). ``training``: dynamic − uniform FID over training runs (the
     mean over the table's seeds with t over them, or, the claims table's rule, seed 0's paired difference averaged
-    with the study's other runs, :meth:`~motionlab.report.spread.RunDifferences.pooled`); None where neither was
+    with the study's other runs, :meth:`~motionlab.comparison.RunDifferences.pooled`); None where neither was
     measured. ``source`` says which runs.
     """
 
@@ -362,7 +362,7 @@ def compare_arms(table: EvaluationTable, seeds: tuple[int, ...] = (0,), spread: 
     fid = {a: table.estimate(seed_replica(a, 0), "fid") for a in ARMS}
     top3 = {a: table.estimate(seed_replica(a, 0), "top3") for a in ARMS}
     keys = ("transitions/fid_dynamic", "transitions/fid_uniform")
-    from motionlab.report.spread import this_build
+    from motionlab.comparison import this_build
 
     others = spread.other_runs(*keys, this_build()) if spread is not None else None
     if others is None:

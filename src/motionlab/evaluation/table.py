@@ -1,4 +1,5 @@
-"""The evaluation table: rows × metrics of :class:`~motionlab.estimate.Estimate`, as Markdown, JSON and records."""
+"""The evaluation table: rows × metrics of :class:`~motionlab.estimate.Estimate`, as Markdown and JSON (recorded for
+the claims table by :func:`motionlab.results.record_table`)."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ import numpy as np
 from motionlab.estimate import Estimate
 
 if TYPE_CHECKING:
-    from motionlab.report.spread import RunDifferences
+    from motionlab.comparison import RunDifferences
 
 TASKS = ("reconstruction", "t2m", "multi")
 SPLITS = ("train", "val", "test")
@@ -169,10 +170,10 @@ class EvaluationTable:
         *,
         training: RunDifferences | None = None,
     ):
-        """``row_a`` against ``row_b`` on ``metric`` by the one rule (:func:`motionlab.report.compare`); ``training``:
-        the difference on the other recorded training runs, where measured
+        """``row_a`` against ``row_b`` on ``metric`` by the one rule (:func:`motionlab.comparison.compare`);
+        ``training``: the difference on the other recorded training runs, where measured
         (:meth:`motionlab.report.TrainingSpread.other_runs`): the verdict is then their mean with this table's."""
-        from motionlab.report import compare
+        from motionlab.comparison import compare
 
         quantity = metric_label(metric).rstrip(" ↓↑→")
         return compare(
@@ -183,16 +184,6 @@ class EvaluationTable:
             quantity=quantity,
             training=training,
         )
-
-    def record(self, chapter: str, keys: Mapping[str, tuple[str, str]], note: str | None = None) -> list:
-        """Record ``{key: (row, metric)}`` for the claims table (:func:`motionlab.results.record`), each with its
-        interval; the note defaults to this table's header line (what was evaluated, repeats, seed)."""
-        from motionlab import results
-
-        return [
-            results.record(chapter, key, self.estimate(row, metric), note=note or self.header(), profile=self.profile)
-            for key, (row, metric) in keys.items()
-        ]
 
     def paired(self, row_a: str, row_b: str, metric: str) -> Estimate:
         """``row_a − row_b`` on ``metric``, paired sample by sample (same seeds, same instances): the interval of a

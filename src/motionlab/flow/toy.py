@@ -302,27 +302,6 @@ def energy_by_budget(
     return quality
 
 
-SOLVER_LABELS = {"euler": "Euler", "midpoint": "midpoint"}
-
-
-def energy_table(quality: Mapping[tuple[str, str, int], float], floor: float | None = None, points: int = 0):
-    """:func:`energy_by_budget`'s grid as a :class:`~motionlab.viz.tables.Table`: one row per budget (NFE), one
-    column per field and solver ("–" where the solver cannot spend that budget); under it the noise ``floor``
-    (the energy distance between two samples of the data, ``points`` each), when given."""
-    from motionlab.viz.tables import Table
-
-    if not quality:
-        raise ValueError("quality is empty")
-    columns = {(name, solver): f"{name}, {SOLVER_LABELS.get(solver, solver)}" for name, solver, _ in quality}
-    rows = {
-        nfe: {label: quality.get((*key, nfe)) for key, label in columns.items()}
-        for nfe in sorted({nfe for *_, nfe in quality})
-    }
-    notes = () if floor is None else (f"noise floor (two samples of the data, {points} points each): {floor:.4f}",)
-    labels = tuple(columns.values())
-    return Table("NFE", rows, columns=labels, notes=notes, formats=dict.fromkeys(labels, ".4f"))
-
-
 __all__ = [
     "TOY_DISTRIBUTIONS",
     "ToyFlowConfig",
@@ -330,7 +309,6 @@ __all__ = [
     "build_toy_flow",
     "energy_by_budget",
     "energy_distance",
-    "energy_table",
     "flow_trajectory",
     "sample_at_budget",
     "sample_toy",

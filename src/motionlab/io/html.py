@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 
 from ..representation import Skeleton
-from ..viz.palette import CHAIN_COLORS
 from .common import as_joints, write_text_atomic
+from .palette import CHAIN_COLORS
 
 _PAGE = """<!DOCTYPE html>
 <html lang="en">

@@ -12,7 +12,6 @@ from .evaluation import (
     METRICS,
     GroundTruthJerks,
     MultiMotionReference,
-    boundary_jerk_table,
     build_reference,
     evaluate_ground_truth_single,
     evaluate_methods,
@@ -42,7 +41,6 @@ from .tps import (
 )
 
 __all__ = [
-    "boundary_jerk_table",
     "DEFAULT_TRANSITION",
     "GROUND_TRUTH_CONCAT",
     "GROUND_TRUTH_SINGLE",

@@ -37,7 +37,7 @@ DEFAULT_WINDOW = 40
 GROUND_TRUTH_SINGLE, GROUND_TRUTH_CONCAT = "Ground Truth (Single)", "Ground Truth (Concat)"  # the two reference rows
 
 
-def _parts(motion) -> tuple[np.ndarray, list[int]]:
+def motion_parts(motion) -> tuple[np.ndarray, list[int]]:
     """A MultiMotion-like object (``.features``, ``.boundaries``) or a ``(features, boundaries)`` pair."""
     if hasattr(motion, "features") and hasattr(motion, "boundaries"):
         return np.asarray(motion.features), list(motion.boundaries)
@@ -66,22 +66,6 @@ def transition_jerk(features: np.ndarray, boundaries: Sequence[int], window: int
     return transition_log_jerk(recover_from_ric(np.asarray(features, np.float32)), boundaries, window)
 
 
-def boundary_jerk_table(motions: Mapping, window: int = DEFAULT_WINDOW):
-    """Eq. 10 around every boundary of each named multi-motion (``.features``/``.boundaries`` or a pair), and their
-    mean: a :class:`~motionlab.viz.tables.Table` with one row per name, lower is smoother."""
-    from motionlab.viz.tables import Table
-
-    if not motions:
-        raise ValueError("motions is empty: pass {name: multi-motion}")
-    rows = {}
-    for name, motion in motions.items():
-        features, boundaries = _parts(motion)
-        jerk = transition_jerk(features, boundaries, window)
-        rows[name] = {**{f"boundary {i + 1}": float(j) for i, j in enumerate(jerk)}, "mean": float(np.mean(jerk))}
-    note = f"Jerk (M2D2M Eq. 10) in the {window} frames around each boundary; lower is smoother."
-    return Table("motion", rows, notes=(note,))
-
-
 def real_windows(clips: Sequence[np.ndarray], window: int, rng, n: int | None = None) -> list[np.ndarray]:
     """``n`` windows of ``window`` frames at random starts in random real clips (one per clip by default).
 
@@ -108,7 +92,7 @@ def transition_profile(motions: Sequence, window: int = DEFAULT_WINDOW) -> dict[
     """
     half, speeds, jerks = window // 2, [], []
     for motion in motions:
-        features, boundaries = _parts(motion)
+        features, boundaries = motion_parts(motion)
         joints = recover_from_ric(np.asarray(features, np.float32))  # (T, J, 3)
         for b in boundaries:
             if b - half >= 0 and b + half <= len(joints):
@@ -202,7 +186,7 @@ def _score(evaluator, motions, captions, reference, rng, batch_size=32, diversit
         raise ValueError(f"motions and captions must be non-empty and match, got {len(motions)} and {len(captions)}")
     segments, flat_captions, windows, jerks = [], [], [], []
     for i, (motion, caps) in enumerate(zip(motions, captions, strict=True)):
-        features, boundaries = _parts(motion)
+        features, boundaries = motion_parts(motion)
         if len(boundaries) + 1 != len(caps):
             raise ValueError(f"motion {i} has {len(boundaries) + 1} actions but {len(caps)} captions")
         segments += split_segments(features, boundaries)
@@ -302,7 +286,7 @@ def segment_jerk(motions: Sequence, window: int = DEFAULT_WINDOW, *, rng) -> np.
     rng = _rng(rng)
     values = []
     for motion in motions:
-        features, boundaries = _parts(motion)
+        features, boundaries = motion_parts(motion)
         joints = recover_from_ric(np.asarray(features, np.float32))  # (T, J, 3)
         edges = [0, *boundaries, len(joints)]
         windows = []

@@ -13,8 +13,10 @@ difference on other training runs (:func:`load_spread`), the verdict is the mean
 ``compare(..., training=spread.other_runs(a, b, this_build()))``.
 """
 
-from .phrases import Comparison, Sentence, compare, difference, trend
-from .spread import RunDifferences, TrainingSpread, load_spread, this_build
+from motionlab.comparison import Comparison, RunDifferences, Sentence, compare, difference, this_build, trend
+
+from .budget import plot_budget
+from .spread import TrainingSpread, load_spread
 
 __all__ = [
     "Comparison",
@@ -24,6 +26,7 @@ __all__ = [
     "compare",
     "difference",
     "load_spread",
+    "plot_budget",
     "this_build",
     "trend",
 ]

@@ -17,9 +17,11 @@ from __future__ import annotations
 
 import json
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+
+import numpy as np
 
 from motionlab.estimate import Estimate, mean_ci
 
@@ -212,6 +214,42 @@ def budget_curves(study: BudgetStudy, keys: Sequence[str], guidance_scale: float
     return curves
 
 
+def plot_budget(
+    study: BudgetStudy, panels: Mapping[str, Sequence[str]], *, axes=None, figsize: tuple[float, float] = (7.4, 2.4)
+):
+    """The budget study's numbers against training steps: one panel per entry of ``panels`` (title -> claim keys,
+    e.g. ``{"transition Jerk": ["tps/jerk_tps", "tps/jerk_gt_single"]}``), one line per key with its 95% interval,
+    the laptop's budget marked. Returns the axes.
+    """
+    import matplotlib.pyplot as plt  # only when drawn: the claims table must not pay for pyplot
+
+    from .quantities import quantity
+
+    if not panels:
+        raise ValueError("need at least one panel")
+    if axes is None:
+        _, axes = plt.subplots(1, len(panels), figsize=figsize, squeeze=False)
+    axes = np.atleast_1d(axes).ravel()
+    if len(axes) != len(panels):
+        raise ValueError(f"{len(panels)} panels need as many axes, got {len(axes)}")
+    for ax, (title, keys) in zip(axes, panels.items()):
+        curves = budget_curves(study, keys)
+        for i, (key, points) in enumerate(curves.items()):
+            dodge = 1.0 + 0.04 * (i - (len(curves) - 1) / 2)  # side by side on the log axis, so the bars do not hide
+            steps = [n * dodge for n, _ in points]
+            means, halves = [e.mean for _, e in points], [e.half_width for _, e in points]
+            ax.errorbar(steps, means, yerr=halves, marker="o", ms=3, capsize=2, label=quantity(key)[1] or key)
+        ax.axvline(study.laptop_steps, color="gray", ls="--", lw=1)
+        ax.set_xscale("log")
+        mixed = study.mixed_precision  # then each budget says what it was trained in
+        ax.set_xticks(study.budgets, [f"{n:,}\n{study.precision(n)}" if mixed else f"{n:,}" for n in study.budgets])
+        ax.minorticks_off()
+        ax.set_xlabel("training steps (dashed: the laptop's)")
+        ax.set_title(title, fontsize=9)
+        ax.legend(fontsize=7, framealpha=0.8)
+    return axes
+
+
 ETA_FOLDER = ("book", "data", "m2d2m_eta")
 
 
@@ -279,5 +317,6 @@ __all__ = [
     "budget_results",
     "load_budget",
     "load_eta_axis",
+    "plot_budget",
     "scale_statement",
 ]

@@ -7,6 +7,7 @@ import math
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
+from motionlab.comparison import compare, this_build
 from motionlab.estimate import format_estimate, format_number
 from motionlab.profiles import get_profile
 from motionlab.viz.tables import Table
@@ -15,7 +16,7 @@ from .budget import BudgetStudy, load_budget, scale_statement
 from .claims import CLAIMS, FINDINGS
 from .quantities import quantity
 from .rules import Claim, Within, training_difference
-from .spread import TrainingSpread, load_spread, this_build
+from .spread import TrainingSpread, load_spread
 from .store import CHAPTERS, FAILS, HOLDS, INCONCLUSIVE, MISSING, VERDICTS, Result, load_all
 
 # ----------------------------------------------------------------------------------------------
@@ -164,8 +165,6 @@ def _study(value, kind: type, load, profile: str, name: str):
 def retraining_phrase(rule, recorded: Mapping[str, Result], spread: TrainingSpread | None) -> str:
     """What the verdict reads besides this build's numbers (``""`` where nothing else was measured): each difference
     the rule judges averaged over the training runs, and how far another draw of test clips moves it."""
-    from motionlab.report import compare
-
     parts = []
     for a, b in getattr(rule, "pairs", ()):
         if a in recorded and b in recorded and (others := training_difference(recorded[a], recorded[b], spread)):

@@ -5,10 +5,11 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
+from motionlab.comparison import Run, RunDifferences, compare, this_build
 from motionlab.estimate import format_estimate
 
 from .quantities import quantity
-from .spread import Run, RunDifferences, TrainingSpread, this_build
+from .spread import TrainingSpread
 from .store import CHAPTERS, FAILS, HOLDS, INCONCLUSIVE, Result
 
 
@@ -87,8 +88,6 @@ def _compare(
     widths the overlap test works at about the 99.5% level, not 95%). Where both were measured on the same samples,
     a paired difference recorded beside them (a mechanism row) is sharper still.
     """
-    from motionlab.report import compare
-
     clips = test_set.estimate if test_set is not None else None
     return compare(a.estimate, b.estimate, training=training_difference(a, b, spread), test_set=clips).judge(expected)
 

@@ -24,60 +24,11 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from statistics import stdev
-from typing import NamedTuple
 
+from motionlab.comparison import MIN_SEEDS, Run, RunDifferences, student_t
 from motionlab.estimate import Estimate
 
-MIN_SEEDS = 3  # fewer seeds give no usable spread (t with one degree of freedom is 12.7)
 FOLDER = ("book", "data", "training_seeds")
-
-
-class Run(NamedTuple):
-    """One training run of a study's models: the precision it was trained in and its seed. Seed 0 in bf16 on one CPU
-    and seed 0 in fp32 on another are two runs (the book's model on each machine), and both join the spread."""
-
-    precision: str
-    seed: int
-
-    def __str__(self) -> str:
-        return f"seed {self.seed} ({self.precision})"
-
-
-def this_build(precision: str | None = None) -> Run:
-    """The run this build's models are: seed 0 (the book's) in ``precision`` (default: the precision this process
-    trains in, :func:`motionlab.precision.network_precision`)."""
-    if precision is None:
-        from motionlab.precision import network_precision  # imports torch: only when asked
-
-        precision = network_precision()
-    return Run(precision, 0)
-
-
-def _t(n: int) -> float:
-    """The two-sided 95% quantile of Student's t with ``n − 1`` degrees of freedom."""
-    from scipy.special import stdtrit
-
-    return float(stdtrit(n - 1, 0.975))
-
-
-@dataclass(frozen=True)
-class RunDifferences:
-    """``a − b`` on the recorded training runs other than this build's own (``runs[i]`` gave ``values[i]``)."""
-
-    runs: tuple[Run, ...]
-    values: tuple[float, ...]
-
-    def __post_init__(self) -> None:
-        if len(self.runs) != len(self.values) or len(self.values) < MIN_SEEDS - 1:
-            raise ValueError(f"need {MIN_SEEDS - 1} or more recorded runs, one value each, got {self.values}")
-
-    def pooled(self, here: Estimate) -> Estimate:
-        """The mean of ``a − b`` over these runs and this build's (``here``, with its measurement interval), with
-        its 95% half-width ``hypot(t · sd / √n, h_here / √n)`` over the ``n`` runs."""
-        d = (*self.values, here.mean)
-        n = len(d)
-        half = math.hypot(_t(n) * stdev(d), here.half_width) / math.sqrt(n)
-        return Estimate(sum(d) / n, half, n, here.unit)
 
 
 @dataclass(frozen=True)
@@ -109,7 +60,7 @@ class TrainingSpread:
         if len(runs) < MIN_SEEDS:
             return None
         d = [self.values[a][r] - self.values[b][r] for r in runs]
-        return Estimate(sum(d) / len(d), _t(len(d)) * stdev(d), len(d))
+        return Estimate(sum(d) / len(d), student_t(len(d)) * stdev(d), len(d))
 
     def other_runs(self, a: str, b: str, build: Run | None) -> RunDifferences | None:
         """``a − b`` on the recorded runs, leaving out ``build`` (the run this build repeats; None: a build that

@@ -46,16 +46,16 @@ import math
 import os
 import re
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import Any
 
+from motionlab.comparison import FAILS, HOLDS, INCONCLUSIVE  # one set of verdicts, shared with the sentences
 from motionlab.estimate import Estimate, format_estimate
 from motionlab.paths import cache_dir
 from motionlab.profiles import get_profile
-
-from .phrases import FAILS, HOLDS, INCONCLUSIVE  # one set of verdicts, shared with the sentences
 
 RESULTS_ENV = "MOTIONLAB_RESULTS"
 
@@ -212,6 +212,18 @@ def record(
     }
     _write_atomic(path, {"chapter": chapter, "profile": profile, "results": entries})
     return result
+
+
+def record_table(
+    chapter: str, table: Any, keys: Mapping[str, tuple[str, str]], note: str | None = None
+) -> list[Result]:
+    """Record cells of an evaluation ``table`` (:class:`~motionlab.evaluation.EvaluationTable`) for the claims table:
+    ``keys`` maps a claim key to its ``(row, metric)``, each recorded with its interval under the table's profile. The
+    note defaults to the table's header line (what was evaluated, repeats, seed)."""
+    return [
+        record(chapter, key, table.estimate(row, metric), note=note or table.header(), profile=table.profile)
+        for key, (row, metric) in keys.items()
+    ]
 
 
 def _read(path: Path) -> dict:

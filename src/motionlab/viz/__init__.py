@@ -1,8 +1,8 @@
 """Visualisation: stick-figure animations, trajectory/jerk plots, the feature layout, training curves, 2-D codebooks
 and point clouds, and small tables for reading (:class:`~motionlab.viz.tables.Table`).
 
-The plotting functions are imported on first use: importing ``motionlab.viz.palette`` (what the HTML writer
-needs) must not start matplotlib, which costs about a second.
+The plotting functions are imported on first use: importing ``motionlab.viz.tables``
+must not start matplotlib, which costs about a second.
 """
 
 from importlib import import_module
@@ -12,7 +12,6 @@ _WHERE = {
     "plot_clouds": "plots",
     "plot_codebook_snapshots": "plots",
     "plot_feature_layout": "plots",
-    "plot_budget": "plots",
     "plot_history": "plots",
     "plot_trajectories": "plots",
     "trajectory_explorer": "plots",

@@ -238,36 +238,3 @@ def trajectory_explorer(
         ),
         axis=widgets.ToggleButtons(options=[("x", 0), ("y (up)", 1), ("z", 2)], value=axis, description="axis"),
     )
-
-
-def plot_budget(study, panels: Mapping[str, Sequence[str]], *, axes=None, figsize: tuple[float, float] = (7.4, 2.4)):
-    """The budget study's numbers against training steps: one panel per entry of ``panels`` (title -> claim keys,
-    e.g. ``{"transition Jerk": ["tps/jerk_tps", "tps/jerk_gt_single"]}``), one line per key with its 95% interval,
-    the laptop's budget marked. Returns the axes.
-    """
-    from motionlab.report.budget import budget_curves
-    from motionlab.report.quantities import quantity
-
-    if not panels:
-        raise ValueError("need at least one panel")
-    if axes is None:
-        _, axes = plt.subplots(1, len(panels), figsize=figsize, squeeze=False)
-    axes = np.atleast_1d(axes).ravel()
-    if len(axes) != len(panels):
-        raise ValueError(f"{len(panels)} panels need as many axes, got {len(axes)}")
-    for ax, (title, keys) in zip(axes, panels.items()):
-        curves = budget_curves(study, keys)
-        for i, (key, points) in enumerate(curves.items()):
-            dodge = 1.0 + 0.04 * (i - (len(curves) - 1) / 2)  # side by side on the log axis, so the bars do not hide
-            steps = [n * dodge for n, _ in points]
-            means, halves = [e.mean for _, e in points], [e.half_width for _, e in points]
-            ax.errorbar(steps, means, yerr=halves, marker="o", ms=3, capsize=2, label=quantity(key)[1] or key)
-        ax.axvline(study.laptop_steps, color="gray", ls="--", lw=1)
-        ax.set_xscale("log")
-        mixed = study.mixed_precision  # then each budget says what it was trained in
-        ax.set_xticks(study.budgets, [f"{n:,}\n{study.precision(n)}" if mixed else f"{n:,}" for n in study.budgets])
-        ax.minorticks_off()
-        ax.set_xlabel("training steps (dashed: the laptop's)")
-        ax.set_title(title, fontsize=9)
-        ax.legend(fontsize=7, framealpha=0.8)
-    return axes

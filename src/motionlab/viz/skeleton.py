@@ -12,8 +12,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib import animation
 
+from ..io.palette import CHAIN_COLORS
 from ..representation import Skeleton, get_skeleton, skeleton_for_joint_count
-from .palette import CHAIN_COLORS
 
 
 def _as_motion(joints, skeleton) -> tuple[np.ndarray, Skeleton]:

@@ -6,7 +6,7 @@ digits, an int with thousands separators, a missing cell as "–"; a column may 
 (``".4f"``, ``".1e"``, ``".0%"``). Columns of numbers are right-aligned.
 
 The chapters build no Markdown by hand: they call a function that returns a :class:`Table` (e.g.
-:func:`skeleton_table`, :func:`motionlab.tokenizers.analysis.usage_table`) and make it a cell's last line.
+:func:`skeleton_table`, :func:`motionlab.studies.tokenizer_analysis.usage_table`) and make it a cell's last line.
 """
 
 from __future__ import annotations
@@ -94,8 +94,8 @@ class Table:
         return [cells[column] for cells in self.rows.values() if column in cells]
 
     def compare(self, row_a: Hashable, row_b: Hashable, column: str, name_a: str | None = None, name_b=None):
-        """``row_a`` against ``row_b`` in ``column`` by the one rule (:func:`motionlab.report.compare`)."""
-        from motionlab.report import compare
+        """``row_a`` against ``row_b`` in ``column`` by the one rule (:func:`motionlab.comparison.compare`)."""
+        from motionlab.comparison import compare
 
         return compare(
             self.cell(row_a, column),

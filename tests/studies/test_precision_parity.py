@@ -7,7 +7,7 @@ import json
 import pytest
 
 from motionlab.estimate import Estimate
-from motionlab.train import precision_parity as pp
+from motionlab.studies import precision_parity as pp
 
 
 def _record(precision: str, scale: float) -> dict:

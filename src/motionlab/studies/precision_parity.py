@@ -6,7 +6,7 @@ Each run trained the laptop models in one precision on the same data and scored 
 - :func:`training_times`: each model's training time (CPU seconds of its ``motionlab train`` process, both runs
   side by side on one 2-core machine) and the fp32/bf16 ratio;
 - :func:`quality_rows`: every quality number of both runs, mean ± 95% half-width, and the book's one verdict on
-  bf16 against fp32 (:func:`motionlab.report.compare`: the 95% interval of the difference excludes 0, or the two
+  bf16 against fp32 (:func:`motionlab.comparison.compare`: the 95% interval of the difference excludes 0, or the two
   are not distinguishable). A deterministic row (one decode, no sampling noise) has no interval; there the relative
   difference is shown instead, and it contains the training run's own noise (one training seed per precision).
 """
@@ -17,9 +17,8 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..estimate import Estimate
-from ..report import compare
-from ..report.phrases import SAME
+from motionlab.comparison import SAME, compare
+from motionlab.estimate import Estimate
 
 PRECISIONS = ("fp32", "bf16")
 

@@ -9,7 +9,9 @@ import torch
 
 from motionlab.data.embedded.writer import build_clip, plan_families
 from motionlab.flow import DisCoRDDecoder, discord_config, make_condition_projection
-from motionlab.flow.ablation import (
+from motionlab.flow.condition import CONDITION_PROJECTIONS, frames_reached_from_outside, token_influence
+from motionlab.representation import Normalizer
+from motionlab.studies.ablation import (
     ABLATION_METRICS,
     CLIP_METRICS,
     FEED_FORWARD,
@@ -19,8 +21,6 @@ from motionlab.flow.ablation import (
     projection_ablation,
     window_losses,
 )
-from motionlab.flow.condition import CONDITION_PROJECTIONS, frames_reached_from_outside, token_influence
-from motionlab.representation import Normalizer
 from motionlab.tokenizers import build_tokenizer, rvq_config
 
 

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from motionlab.comparison import Sentence
 from motionlab.estimate import Estimate
 
 FEED_FORWARD = "feed-forward RVQ decoder"  # the reference rows of a sweep table
@@ -194,9 +195,7 @@ def _finite(x: float | None) -> float | None:
 def sweep_findings(table, pairs: Sequence[tuple[str, str, str]], columns: Sequence[str] = ("sJPE",)):
     """One bullet per ``(row_a, row_b, what changed)`` whose two rows the table has: each of ``columns`` of ``row_a``
     against ``row_b`` by the one rule (:meth:`~motionlab.viz.tables.Table.compare`), as a
-    :class:`motionlab.report.Sentence` (Markdown); pairs with a row the sweep did not run are left out."""
-    from motionlab.report import Sentence
-
+    :class:`~motionlab.comparison.Sentence` (Markdown); pairs with a row the sweep did not run are left out."""
     lines = []
     for a, b, what in pairs:
         if a in table.rows and b in table.rows:
@@ -219,10 +218,8 @@ def matches_setting(config: Any, result: Mapping[str, Any], sampling: str) -> bo
 
 def crossing_sentence(result: Mapping[str, Any], sampling: str, target: float, metric: str = "sjpe"):
     """When a run's budget curve of ``metric`` falls below ``target`` (the feed-forward decoder's), as a
-    :class:`motionlab.report.Sentence` that says whether that was measured between two checkpoints, extrapolated along
-    a straight line in log-time (a guess, not a measurement), or not in sight (:func:`crossing`)."""
-    from motionlab.report import Sentence
-
+    :class:`~motionlab.comparison.Sentence` that says whether that was measured between two checkpoints, extrapolated
+    along a straight line in log-time (a guess, not a measurement), or not in sight (:func:`crossing`)."""
     name = SWEEP_COLUMNS.get(metric, metric)
     seconds, values = budget_curve(result, sampling, metric)
     when, measured = crossing(seconds, values, target)

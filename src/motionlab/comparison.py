@@ -1,17 +1,75 @@
-"""Comparisons of two estimates, judged by the one rule, and the sentences that say them."""
+"""Two estimates compared by the one rule, and the sentences that say it.
+
+The rule: ``a`` and ``b`` differ when the 95% interval of ``a − b`` excludes 0
+(:meth:`~motionlab.estimate.Estimate.apart_from`); where the training-seed study measured the same difference on
+other training runs (:class:`RunDifferences`), the verdict reads their mean with this run's. Every table that offers
+``.compare`` (:class:`~motionlab.viz.tables.Table`, :class:`~motionlab.evaluation.EvaluationTable`) and every claim of
+:mod:`motionlab.report` judges with :func:`compare`, so a chapter's sentence and the claims table cannot disagree. It
+sits on the ground floor, beside :mod:`motionlab.estimate`, because those tables live below the report layer.
+"""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from statistics import stdev
+from typing import NamedTuple
 
 from motionlab.estimate import Estimate, format_estimate
 
-from .spread import RunDifferences
+MIN_SEEDS = 3  # fewer seeds give no usable spread (t with one degree of freedom is 12.7)
 
 LOWER, HIGHER, SAME = "lower", "higher", "not distinguishable"
 HOLDS, FAILS, INCONCLUSIVE = "holds", "does not hold", "inconclusive"  # the claims table's verdicts
+
+
+class Run(NamedTuple):
+    """One training run of a study's models: the precision it was trained in and its seed. Seed 0 in bf16 on one CPU
+    and seed 0 in fp32 on another are two runs (the book's model on each machine), and both join the spread."""
+
+    precision: str
+    seed: int
+
+    def __str__(self) -> str:
+        return f"seed {self.seed} ({self.precision})"
+
+
+def this_build(precision: str | None = None) -> Run:
+    """The run this build's models are: seed 0 (the book's) in ``precision`` (default: the precision this process
+    trains in, :func:`motionlab.precision.network_precision`)."""
+    if precision is None:
+        from motionlab.precision import network_precision  # imports torch: only when asked
+
+        precision = network_precision()
+    return Run(precision, 0)
+
+
+def student_t(n: int) -> float:
+    """The two-sided 95% quantile of Student's t with ``n − 1`` degrees of freedom."""
+    from scipy.special import stdtrit
+
+    return float(stdtrit(n - 1, 0.975))
+
+
+@dataclass(frozen=True)
+class RunDifferences:
+    """``a − b`` on the recorded training runs other than this build's own (``runs[i]`` gave ``values[i]``)."""
+
+    runs: tuple[Run, ...]
+    values: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        if len(self.runs) != len(self.values) or len(self.values) < MIN_SEEDS - 1:
+            raise ValueError(f"need {MIN_SEEDS - 1} or more recorded runs, one value each, got {self.values}")
+
+    def pooled(self, here: Estimate) -> Estimate:
+        """The mean of ``a − b`` over these runs and this build's (``here``, with its measurement interval), with
+        its 95% half-width ``hypot(t · sd / √n, h_here / √n)`` over the ``n`` runs."""
+        d = (*self.values, here.mean)
+        n = len(d)
+        half = math.hypot(student_t(n) * stdev(d), here.half_width) / math.sqrt(n)
+        return Estimate(sum(d) / n, half, n, here.unit)
 
 
 class Sentence(str):
@@ -39,7 +97,7 @@ class Comparison:
     ``training``, where measured, is ``a − b`` on the recorded training runs of the models behind the two numbers,
     other than the run these numbers come from (:meth:`motionlab.report.spread.TrainingSpread.other_runs`). Then the
     verdict is the mean difference over those runs and this one, with its interval
-    (:meth:`~motionlab.report.spread.RunDifferences.pooled`): what a model trained this way does, which every
+    (:meth:`RunDifferences.pooled`): what a model trained this way does, which every
     machine reads alike, not what one training run did. ``test_set``, where measured, is ``a − b`` paired over the
     test clips both were measured on (:func:`motionlab.estimate.paired_bootstrap`): how far drawing another test set
     moves the difference, which a deterministic measurement's own interval lacks (and every training run shares). Its

@@ -9,7 +9,9 @@ from pathlib import Path
 import pytest
 
 from motionlab.flow import discord_config
-from motionlab.flow.sweep import (
+from motionlab.flow.training import noise_floor
+from motionlab.metrics import mean_ci
+from motionlab.studies.sweep import (
     FEED_FORWARD,
     GROUND_TRUTH,
     best_setting,
@@ -25,8 +27,6 @@ from motionlab.flow.sweep import (
     sweep_rows,
     sweep_table,
 )
-from motionlab.flow.training import noise_floor
-from motionlab.metrics import mean_ci
 
 
 def _runs(*sjpe):
