@@ -20,7 +20,8 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[2]
 SITE = Path(os.environ.get("MOTIONLAB_SITE", REPO / "_build" / "html")).resolve()
-LOCAL_SCHEMES = ("file:", "data:", "blob:", "about:", "chrome:", "chrome-error:", "devtools:")
+# chrome-untrusted: is Chromium's own new-tab page, which a fresh browser may still be loading when the first page opens
+LOCAL_SCHEMES = ("file:", "data:", "blob:", "about:", "chrome:", "chrome-error:", "chrome-untrusted:", "devtools:")
 
 pytestmark = pytest.mark.browser
 
