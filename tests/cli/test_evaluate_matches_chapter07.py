@@ -16,6 +16,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+import motionlab.evaluation
 from motionlab import cli
 from motionlab.estimate import mean_ci
 from motionlab.evaluation import TextToMotionConfig, evaluate_t2m
@@ -25,8 +26,8 @@ from motionlab.sizes import DiffusionSizes, TransitionsSizes, chapter_sizes
 REPO = Path(__file__).resolve().parents[2]
 CHAPTER_07 = REPO / "notebooks" / "07_discrete_diffusion.ipynb"
 # The two statements of chapter 07 that compute its Table 3 and guidance sweep (the test evaluates exactly these).
-CONFIG = "TextToMotionConfig.from_sizes(sizes.diffusion, seed=seed)"
-TABLE = "evaluate_t2m(dataset, config)"
+CONFIG = "evaluation.TextToMotionConfig.from_sizes(sizes.diffusion, seed=seed)"
+TABLE = "evaluation.evaluate_t2m(dataset, config)"
 
 
 def test_chapter_07_computes_its_table_with_these_expressions(chapter_code):
@@ -50,10 +51,9 @@ def chapter_table(small_sizes):
         mp.setenv("MOTIONLAB_PRECISION", "fp32")
         dataset = load_dataset(profile="smoke", seed=0)
         config = eval(
-            CONFIG,
-            {"TextToMotionConfig": TextToMotionConfig, "sizes": SimpleNamespace(diffusion=small_sizes), "seed": 0},
+            CONFIG, {"evaluation": motionlab.evaluation, "sizes": SimpleNamespace(diffusion=small_sizes), "seed": 0}
         )
-        table = eval(TABLE, {"evaluate_t2m": evaluate_t2m, "dataset": dataset, "config": config})
+        table = eval(TABLE, {"evaluation": motionlab.evaluation, "dataset": dataset, "config": config})
     return config, table
 
 

@@ -16,6 +16,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+import motionlab.evaluation
 from motionlab import cli
 from motionlab.estimate import mean_ci
 from motionlab.evaluation import MultiMotionConfig, evaluate_multi
@@ -26,17 +27,17 @@ from motionlab.sizes import chapter_sizes
 REPO = Path(__file__).resolve().parents[2]
 CHAPTER_09 = REPO / "notebooks" / "09_two_phase_sampling.ipynb"
 # The statements of chapter 09 that compute its tables (the test evaluates exactly these).
-CONFIG = "paper_config(design, seed=seed)"
-TABLE = "evaluate_multi(dataset, config, generated=generated, tokens=tokens)"
-FLOW = "evaluate_multi(dataset, flow_config, tokens=tokens)"
-UNIFORM = 'paper_config(design, seed=seed, model="t2m/uniform", methods=("independent", "tps"))'
+CONFIG = "evaluation.multi.paper_config(design, seed=seed)"
+TABLE = "evaluation.evaluate_multi(dataset, config, generated=generated, tokens=tokens)"
+FLOW = "evaluation.evaluate_multi(dataset, flow_config, tokens=tokens)"
+UNIFORM = 'evaluation.multi.paper_config(design, seed=seed, model="t2m/uniform", methods=("independent", "tps"))'
 TPS, INDEPENDENT = "TPS (T_s = 90)", "Independent (tokens concatenated)"
 
 
 def test_chapter_09_computes_its_tables_with_these_expressions(chapter_code):
     code = chapter_code(CHAPTER_09)
     assert f"config = {CONFIG}" in code and f"table = {TABLE}" in code and f"flow = {FLOW}" in code
-    assert f"evaluate_multi(dataset, {UNIFORM})" in code
+    assert "uniform = evaluation.evaluate_multi(" in code and f"    dataset, {UNIFORM}\n)" in code
 
 
 @pytest.fixture(scope="module")
@@ -49,11 +50,11 @@ def chapter():
         mp.setenv("MOTIONLAB_PROFILE", "smoke")
         mp.setenv("MOTIONLAB_PRECISION", "fp32")
         dataset = load_dataset(profile="smoke", seed=0)
-        names = {"paper_config": paper_config, "design": design, "seed": 0}
+        names = {"evaluation": motionlab.evaluation, "design": design, "seed": 0}
         config = eval(CONFIG, names)
         generated: dict = {}
         tokens: dict = {}
-        scope = {"evaluate_multi": evaluate_multi, "dataset": dataset, "config": config, "generated": generated}
+        scope = {"evaluation": motionlab.evaluation, "dataset": dataset, "config": config, "generated": generated}
         table = eval(TABLE, {**scope, "tokens": tokens})
         uniform = evaluate_multi(dataset, eval(UNIFORM, names), tokens=tokens)
     return SimpleNamespace(config=config, table=table, generated=generated, uniform=uniform, tokens=tokens)
