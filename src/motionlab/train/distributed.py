@@ -135,7 +135,9 @@ def average_scalars(values: dict[str, float], ctx: DistributedContext) -> dict[s
     if not ctx.enabled or not values:
         return values
     keys = sorted(values)
-    t = torch.tensor([values[k] for k in keys], dtype=torch.float64)
+    # nccl reduces only GPU tensors: the few numbers travel through this rank's GPU there
+    device = f"cuda:{ctx.local_rank}" if dist.get_backend() == "nccl" else "cpu"
+    t = torch.tensor([values[k] for k in keys], dtype=torch.float64, device=device)
     dist.all_reduce(t, op=dist.ReduceOp.SUM)
     return {k: float(v) / ctx.world_size for k, v in zip(keys, t.tolist())}
 
