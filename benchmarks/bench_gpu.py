@@ -29,6 +29,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib.util
+import json
 import math
 import os
 import platform
@@ -41,7 +42,7 @@ from types import SimpleNamespace
 
 import torch
 import torch.nn.functional as F
-from _timing import add_timing_arguments, apply_threads, interleaved, write_records
+from _timing import add_timing_arguments, apply_threads, interleaved
 from torch.utils.flop_counter import FlopCounterMode
 
 from motionlab.data import load_dataset
@@ -292,8 +293,9 @@ def official_decode(unet, tokenizer, ids, points: int, precision: str, device: t
 
 
 # -- the sections ---------------------------------------------------------------------------------------------------
-def train_section(args, device: torch.device, dataset, peak: float) -> list[dict]:
-    records = []
+def train_section(args, device: torch.device, dataset, peak: float, save: Callable[[list[dict]], None]) -> None:
+    """Time each model and precision; ``save`` receives each one's records as soon as they are measured (a lease
+    that runs out keeps what it measured)."""
     for name in args.models:
         for precision in args.precisions:
             trainer, twin = library_trainer(name, args.profile, dataset, device, precision)
@@ -304,7 +306,7 @@ def train_section(args, device: torch.device, dataset, peak: float) -> list[dict
             steps = args.steps
             variants = {"library train_step": repeated(trainer.train_step, steps), "module": repeated(raw, steps)}
             compile_seconds = {}
-            if args.compile:
+            if args.compile and precision == args.precisions[0]:  # one compile per model: each costs tens of seconds
                 compiled = RawStep(twin(), loss_fn, batch, device, precision)
                 for part in network_of(name, compiled.model):
                     part.compile()
@@ -315,6 +317,7 @@ def train_section(args, device: torch.device, dataset, peak: float) -> list[dict
                 variants["official module"] = repeated(official, steps)
             timings = interleaved({k: synced(v, device) for k, v in variants.items()}, args.repeats)
             module_ms = 1e3 * timings["module"].summary()["wall_median"] / steps
+            records = []
             for variant, timing in timings.items():
                 summary = timing.summary()
                 ms = {k: 1e3 * summary[f"wall_{k}"] / steps for k in ("median", "min", "max")}
@@ -334,10 +337,10 @@ def train_section(args, device: torch.device, dataset, peak: float) -> list[dict
                 if variant in compile_seconds:
                     record["compile_s"] = compile_seconds[variant]
                 records.append(record)
+            save(records)
             del trainer, raw, variants
             if device.type == "cuda":
                 torch.cuda.empty_cache()
-    return records
 
 
 def official_step(args, name: str, trainer, batch, device: torch.device, precision: str) -> RawStep | None:
@@ -477,13 +480,23 @@ def main(argv: list[str] | None = None) -> list[dict]:
             for name, dtype in (("bf16", torch.bfloat16), ("fp32", torch.float32))
         }
     records = [machine_record(args, device, peaks)]
+
+    def save(new: list[dict]) -> None:
+        records.extend(new)
+        print_records(new)
+        if args.json is not None:  # rewritten after every measurement: a run cut short keeps what it measured
+            args.json.parent.mkdir(parents=True, exist_ok=True)
+            args.json.write_text(json.dumps(records, indent=1) + "\n")
+
+    save([])
+    print_records(records[:1])
     if "train" in args.sections:
         dataset = load_dataset(None, profile="smoke")  # the cost of a step does not depend on the data
-        records += train_section(args, device, dataset, peaks.get("bf16", math.nan) if peaks else 0.0)
+        train_section(args, device, dataset, peaks.get("bf16", math.nan) if peaks else 0.0, save)
     if "decode" in args.sections:
-        records += decode_section(args, device)
-    print_records(records)
-    write_records(args.json, records)
+        save(decode_section(args, device))
+    if args.json is not None:
+        print(f"wrote {args.json}")
     return records
 
 

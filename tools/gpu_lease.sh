@@ -8,8 +8,9 @@
 # _official/ (whwjdqls/DisCoRD as _official/DisCoRD, EricGuo5513/momask-codes as _official/momask-codes): never
 # committed, carried to the machine with the working tree.
 #
-#     tools/gpu_lease.sh                  # about 5 minutes of benchmark, then the tests (about 5 more)
-#     BENCH_ONLY=1 tools/gpu_lease.sh     # the benchmark alone
+#     BENCH_ONLY=1 tools/gpu_lease.sh     # the benchmark alone (about 5 minutes)
+#     TESTS_ONLY=1 tools/gpu_lease.sh     # the tests alone (a device command may run 10 minutes: call twice)
+#     tools/gpu_lease.sh                  # both, where one command may run longer
 #     BENCH_ARGS="--smoke" BENCH_ONLY=1 tools/gpu_lease.sh   # a dry run on a CPU, in seconds
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -21,9 +22,11 @@ official=()
 [ -d _official/DisCoRD ] && official+=(--official-discord _official/DisCoRD)
 [ -d _official/momask-codes ] && official+=(--official-momask _official/momask-codes)
 
-nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv > "$OUT/bench.txt" 2>&1
-timeout "${BENCH_TIMEOUT:-420}" python benchmarks/bench_gpu.py --json "$OUT/gpu.json" "${official[@]}" ${BENCH_ARGS:-} >> "$OUT/bench.txt" 2>&1
-echo "bench_gpu exit $?" >> "$OUT/bench.txt"
+if [ -z "${TESTS_ONLY:-}" ]; then
+  nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv > "$OUT/bench.txt" 2>&1
+  timeout "${BENCH_TIMEOUT:-420}" python benchmarks/bench_gpu.py --json "$OUT/gpu.json" "${official[@]}" ${BENCH_ARGS:-} >> "$OUT/bench.txt" 2>&1
+  echo "bench_gpu exit $?" >> "$OUT/bench.txt"
+fi
 
 if [ -z "${BENCH_ONLY:-}" ]; then
   MOTIONLAB_DEVICE=cuda MOTIONLAB_PROFILE=smoke timeout "${TEST_TIMEOUT:-420}" \
