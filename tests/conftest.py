@@ -23,6 +23,23 @@ def shared_data() -> Path:
     return SHARED_DATA
 
 
+@pytest.fixture(scope="session")
+def bench_gpu():
+    """``benchmarks/bench_gpu.py`` as a module (with its sibling ``_timing`` importable): the benchmark's builders of
+    the library's trainers are what the tests of those trainers' steps use too."""
+    import sys
+
+    benchmarks = str(REPO / "benchmarks")
+    sys.path.insert(0, benchmarks)
+    try:
+        import bench_gpu
+
+        yield bench_gpu
+    finally:
+        sys.path.remove(benchmarks)
+        sys.modules.pop("bench_gpu", None)
+
+
 @pytest.fixture
 def isolated_cache(tmp_path, monkeypatch) -> Path:
     """Point motionlab's cache root at a temporary folder."""

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import sys
-from pathlib import Path
 
 import pytest
 
@@ -13,18 +11,6 @@ from motionlab.report.gpu import decode_table, projection_table, read_gpu_run, s
 
 def gpu_tables(run) -> str:
     return "\n".join([step_table(run), projection_table(run, precision="fp32"), decode_table(run)])
-
-
-BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
-
-
-@pytest.fixture
-def bench_gpu(monkeypatch):
-    monkeypatch.syspath_prepend(str(BENCHMARKS))
-    import bench_gpu
-
-    yield bench_gpu
-    sys.modules.pop("bench_gpu", None)
 
 
 def test_the_smoke_run_records_every_section(bench_gpu, tmp_path, capsys):

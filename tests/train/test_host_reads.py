@@ -13,18 +13,9 @@ from torch.profiler import profile
 from torch.utils._python_dispatch import TorchDispatchMode
 
 from motionlab.data import load_dataset
-from motionlab.diffusion.training import (
-    TextToMotionNetworks,
-    build_vocabulary,
-    diffusion_training_config,
-    make_transitions,
-    text_to_motion_trainer,
-    tokenize_clips,
-)
-from motionlab.flow import DisCoRDDecoder, discord_config
-from motionlab.flow.training import discord_trainer
-from motionlab.tokenizers import build_tokenizer, rvq_config, vq_config
+from motionlab.tokenizers import build_tokenizer, vq_config
 from motionlab.tokenizers.training import tokenizer_trainer
+from motionlab.train import get_device
 
 READ = "aten::_local_scalar_dense"
 
@@ -65,35 +56,24 @@ class ReadsInside(TorchDispatchMode):
 
 
 @pytest.mark.parametrize("precision", ["fp32", "bf16"])
-def test_the_discord_step_reads_nothing(dataset, precision):
-    tokenizer = build_tokenizer(rvq_config("smoke")).eval()
-    model = DisCoRDDecoder(discord_config("smoke", tokenizer=tokenizer))
-    trainer = discord_trainer(model, tokenizer, dataset.normalized("train"), progress=False, precision=precision)
+def test_the_discord_step_reads_nothing(dataset, bench_gpu, precision):
+    trainer, _ = bench_gpu.library_trainer("discord", "smoke", dataset, get_device(), precision)
     assert reads_per_step(trainer) <= 1  # 153 before the step stopped reading back
 
 
 @pytest.mark.parametrize("precision", ["fp32", "bf16"])
-def test_the_text_to_motion_step_reads_nothing(dataset, precision):
-    tokenizer = build_tokenizer(vq_config("smoke")).eval()
-    config = diffusion_training_config("smoke", num_codes=tokenizer.codebook_size)
-    captions = [[c.text for c in clip.captions] for clip in dataset.split("train")]
-    sequences = tokenize_clips(tokenizer, dataset.normalized("train"))
-    transitions = make_transitions(config.transformer, tokenizer.codebook().cpu())
-    networks = TextToMotionNetworks(config, build_vocabulary(captions, config))
-    trainer = text_to_motion_trainer(
-        networks, sequences, captions, transitions, config, progress=False, precision=precision
-    )
+def test_the_text_to_motion_step_reads_nothing(dataset, bench_gpu, precision):
+    trainer, _ = bench_gpu.library_trainer("t2m", "smoke", dataset, get_device(), precision)
     assert reads_per_step(trainer) <= 1  # 112 before
 
 
-def test_the_tokenizer_steps_read_only_the_layer_dropout_draw(dataset):
+def test_the_tokenizer_steps_read_only_the_layer_dropout_draw(dataset, bench_gpu):
     plain = build_tokenizer(vq_config("smoke"))
     assert reads_per_step(tokenizer_trainer(plain, dataset.normalized("train"), progress=False)) <= 1
 
-    config = rvq_config("smoke")
-    assert config.quantize_dropout > 0  # the smoke RVQ drops layers, as MoMask's does
-    residual = build_tokenizer(config)
-    trainer = tokenizer_trainer(residual, dataset.normalized("train"), progress=False)
+    trainer, _ = bench_gpu.library_trainer("rvq", "smoke", dataset, get_device(), "fp32")
+    residual = trainer.model
+    assert residual.config.quantize_dropout > 0  # the smoke RVQ drops layers, as MoMask's does
     assert reads_per_step(trainer) <= 3  # 87 before
     counter, draw = ReadsInside(), residual.quantizer.active_layers
 

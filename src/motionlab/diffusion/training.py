@@ -289,9 +289,9 @@ class TokenBatches:
         flat = np.where(padding, 0, c[:, None] * self._row_width + start[:, None] + offsets[None, :])
         caption = self._first_caption[c] + (u[:, 1] * self._n_captions[c]).astype(np.int64)
         device = self._tokens.device
-        ids = self._tokens.view(-1)[_to(flat, device)]  # (B, L): one gather
-        ids = ids.masked_fill(_to(padding, device), 0)
-        batch = {"ids": ids, "padding_mask": _to(padding, device), "caption": torch.from_numpy(caption)}
+        padding_mask = _to(padding, device)
+        ids = self._tokens.view(-1)[_to(flat, device)].masked_fill(padding_mask, 0)  # (B, L): one gather
+        batch = {"ids": ids, "padding_mask": padding_mask, "caption": torch.from_numpy(caption)}
         if self._text_ids is not None:
             S = int(self._text_lengths[caption].max())
             text_ids = self._text_ids[_to(caption, device), :S]  # (B, S)

@@ -54,17 +54,15 @@ class WindowDataset:
         self.offsets = torch.cumsum(counts, 0) - counts  # first flat window index of each clip
         first_frame = torch.cumsum(lengths, 0) - lengths  # first row of each clip in `frames`
         # window i of clip c starts at first_frame[c] + (i − offsets[c])
-        self.window_starts = torch.repeat_interleave(first_frame - self.offsets, counts) + torch.arange(
-            int(counts.sum())
-        )
         self._length = int(counts.sum())
+        self.window_starts = torch.repeat_interleave(first_frame - self.offsets, counts) + torch.arange(self._length)
+        self._clip_lengths = lengths.tolist()
         self._steps = torch.arange(window)  # (W,) frame offsets inside a window
 
     @property
     def clips(self) -> list[torch.Tensor]:
         """The kept clips, each a ``(T, D)`` view of ``frames``."""
-        lengths = (self.offsets.diff(append=torch.tensor([self._length])) + self.window - 1).tolist()
-        return list(torch.split(self.frames, lengths))
+        return list(torch.split(self.frames, self._clip_lengths))
 
     @property
     def device(self) -> torch.device:
