@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import gc
+import logging
+
 import nbformat
 import pytest
 
@@ -148,3 +151,14 @@ def test_the_fingerprint_follows_the_profile_and_the_model_cache(tmp_path):
     assert build_fingerprint("laptop", tmp_path) != first
     model.write_bytes(b"retrained weights")
     assert build_fingerprint("smoke", tmp_path) != first
+
+
+def test_a_stall_leaves_no_unread_error_behind(tmp_path, caplog):
+    # An abandoned run's error, logged whenever the garbage collector finds it, once landed inside another test's
+    # ast.parse and broke it (Python 3.11 parses source while formatting a traceback).
+    source = write_notebook(tmp_path / "hang.ipynb", "import time\ntime.sleep(600)")
+    with caplog.at_level(logging.ERROR, logger="asyncio"):
+        run = execute_chapter(source, tmp_path / "out.ipynb", stall_s=2, poll_s=0.5, attempts=1, log=lambda _: None)
+        gc.collect()
+    assert run.status == "failed"
+    assert not [r.getMessage() for r in caplog.records if "never retrieved" in r.getMessage()]

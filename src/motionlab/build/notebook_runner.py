@@ -166,6 +166,10 @@ async def _execute_once(client, stall_s: float, poll_s: float) -> None:
         if watch in done:
             run.cancel()  # nbclient's own cleanup runs as the cancellation unwinds
             await asyncio.wait({run}, timeout=60)
+            if run.done() and not run.cancelled():
+                # Read the abandoned run's own error (a dead kernel): left unread, the garbage collector logs it
+                # later from inside whatever code is running then.
+                run.exception()
             watch.result()  # raises ChapterStalled
         run.result()  # raises the cell's error
     finally:
