@@ -3,9 +3,10 @@
 Opens every page of a built site (default ``_build/html``) in headless Chromium (Debian's ``chromium`` and
 ``chromium-driver``, driven by Selenium) from ``file://`` and prints one line per page: its height in px, the number
 of code cells shown and folded, and the elements wider than the content column (tables, code, figures scaled down).
-``--json FILE`` writes the same numbers. Usage::
+``--sections`` adds each section's height under its page (where a long page spends its screens); ``--json FILE``
+writes the same numbers. Usage::
 
-    python tools/page_heights.py [SITE] [--width 1300] [--json heights.json]
+    python tools/page_heights.py [SITE] [--width 1300] [--sections] [--json heights.json]
 """
 
 from __future__ import annotations
@@ -39,7 +40,11 @@ function measure() {
   const cells = [...article.querySelectorAll('.cell')];
   const folded = cells.filter(c => c.classList.contains('tag_hide-input')).length;
   const shown = cells.filter(c => c.querySelector('.cell_input') && !c.classList.contains('tag_hide-input')).length;
-  done({height: document.documentElement.scrollHeight, column: width, shown: shown, folded: folded, wide: wide});
+  const sections = [...article.querySelectorAll('h1, h2, h3')].map(h => ({
+    level: Number(h.tagName[1]), title: h.textContent.replace(/[#¶]\s*$/, '').trim(),
+    top: Math.round(h.getBoundingClientRect().top + window.scrollY)}));
+  done({height: document.documentElement.scrollHeight, column: width, shown: shown, folded: folded, wide: wide,
+        sections: sections});
 }
 setTimeout(measure, 1500);
 """
@@ -83,10 +88,20 @@ def measure(site: Path, width: int = 1300) -> dict[str, dict]:
             driver.quit()
 
 
+def section_heights(page: dict) -> list[tuple[dict, int]]:
+    """Each heading of a measured page with the height from it to the next heading of its level or above."""
+    sections, out = page.get("sections", []), []
+    for i, section in enumerate(sections):
+        following = (s["top"] for s in sections[i + 1 :] if s["level"] <= section["level"])
+        out.append((section, next(following, page["height"]) - section["top"]))
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("site", nargs="?", type=Path, default=ROOT / "_build" / "html")
     parser.add_argument("--width", type=int, default=1300)
+    parser.add_argument("--sections", action="store_true", help="also print each section's height")
     parser.add_argument("--json", type=Path, help="also write the measurements to this file")
     args = parser.parse_args(argv)
     if not (args.site / "index.html").is_file():
@@ -98,6 +113,9 @@ def main(argv: list[str] | None = None) -> int:
             f"{page:42s} {m['height']:7,d} px  column {m['column']} px  code shown {m['shown']:2d}, "
             f"folded {m['folded']:2d}  wide: {wide}"
         )
+        if args.sections:
+            for section, height in section_heights(m):
+                print(f"    {'  ' * (section['level'] - 1)}{height:7,d} px  {section['title'][:70]}")
     if args.json:
         args.json.write_text(json.dumps(result, indent=1) + "\n")
     return 0
