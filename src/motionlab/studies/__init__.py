@@ -10,12 +10,13 @@ module                      study
 ``toy_flow``                chapter 03: energy distance by sampler budget on the toy flow
 ``ablation``                chapter 04: the condition-projection ablation
 ``reconstruction``          chapter 05: Table 1's clips as joints, the typical clip, the cost of decoding a split
-``sweep``                   chapter 05: reading the recorded DisCoRD decoder sweep
+``sweep``                   "Choosing a decoder that trains in minutes": the recorded DisCoRD decoder sweep
 ``sjpe_sensitivity``        chapter 06: sJPE, FID and joint shift against frame noise and smoothing
 ``tokenizer_analysis``      chapter 02: the tokenizers' configs, codebook use, errors and jerk as tables
 ``diffusion_diagnostics``   chapters 07-08: the x_0 entropy table, the forward processes' distance per η
 ``transitions``             chapter 09: the transition Jerk at each boundary of one example
-``precision_parity``        chapter 98: bf16 against fp32, the recorded parity runs
+``precision_parity``        "bf16 against fp32": the recorded parity runs
+``retraining``              "Retraining and the verdicts": each training run's difference against the mean
 ==========================  ==========================================================================================
 
 The training-seed, budget and η studies feed the claims table's verdicts, so they are read by
