@@ -131,5 +131,6 @@ def test_most_of_the_chapters_code_is_on_the_page():
     lines = visibility()
     total = sum(lines.values())
     # before the reporting layer moved into the library: 385 of 3,282 lines shown, 2,897 hidden or removed
-    assert lines["shown"] >= 0.4 * total, lines
+    # issue 48: the studies left for their own pages, and at least half of what teaches stays in view
+    assert lines["shown"] >= 0.5 * total, lines
     assert lines["hidden"] + lines["removed"] <= 2897 // 2, lines
