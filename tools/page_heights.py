@@ -106,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if not (args.site / "index.html").is_file():
         sys.exit(f"page_heights: no built site at {args.site} (make book PROFILE=smoke)")
-    result = measure(args.site, args.width)
+    result = measure(args.site.resolve(), args.width)
     for page, m in result.items():
         wide = ", ".join(f"{w['what']}" + (f" +{w['by']}px" if "by" in w else "") for w in m["wide"]) or "-"
         print(
