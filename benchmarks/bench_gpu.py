@@ -43,22 +43,14 @@ from types import SimpleNamespace
 import torch
 import torch.nn.functional as F
 from _timing import add_timing_arguments, apply_threads, interleaved
+from _trainers import book_trainer
 from torch.utils.flop_counter import FlopCounterMode
 
 from motionlab.data import load_dataset
-from motionlab.diffusion.training import (
-    TextToMotionNetworks,
-    build_vocabulary,
-    diffusion_training_config,
-    make_transitions,
-    text_to_motion_trainer,
-    tokenize_clips,
-)
 from motionlab.flow import DisCoRDDecoder, discord_config
-from motionlab.flow.training import discord_trainer
 from motionlab.precision import autocast
-from motionlab.tokenizers import build_tokenizer, rvq_config, vq_config
-from motionlab.tokenizers.training import tokenizer_loss_fn, tokenizer_trainer
+from motionlab.tokenizers import build_tokenizer, rvq_config
+from motionlab.tokenizers.training import tokenizer_loss_fn
 
 REPO = Path(__file__).resolve().parents[1]
 MODELS = ("rvq", "discord", "t2m")
@@ -121,37 +113,7 @@ def matmul_peak(device: torch.device, n: int, dtype: torch.dtype, repeats: int) 
 def library_trainer(name: str, profile: str, dataset, device: torch.device, precision: str):
     """``(trainer, twin)``: the trainer the library fits ``name`` with, on ``device`` (random initial weights), and
     a function building a second instance of its model (same config and initial weights) for the raw step."""
-    clips = dataset.normalized("train")
-    if name == "rvq":
-        config = rvq_config(profile)
-        trainer = tokenizer_trainer(
-            build_tokenizer(config), clips, device=str(device), progress=False, precision=precision
-        )
-        return trainer, lambda: build_tokenizer(config)
-    if name == "discord":
-        tokenizer = build_tokenizer(rvq_config(profile)).eval()
-        config = discord_config(profile, tokenizer=tokenizer)
-        trainer = discord_trainer(
-            DisCoRDDecoder(config), tokenizer, clips, device=str(device), progress=False, precision=precision
-        )
-        return trainer, lambda: DisCoRDDecoder(config)
-    tokenizer = build_tokenizer(vq_config(profile)).eval()
-    config = diffusion_training_config(profile, num_codes=tokenizer.codebook_size)
-    captions = [[c.text for c in clip.captions] for clip in dataset.split("train")]
-    sequences = tokenize_clips(tokenizer, clips)
-    transitions = make_transitions(config.transformer, tokenizer.codebook().cpu())
-    vocabulary = build_vocabulary(captions, config)
-    trainer = text_to_motion_trainer(
-        TextToMotionNetworks(config, vocabulary),
-        sequences,
-        captions,
-        transitions,
-        config,
-        device=str(device),
-        progress=False,
-        precision=precision,
-    )
-    return trainer, lambda: TextToMotionNetworks(config, vocabulary)
+    return book_trainer(name, profile, dataset, precision, device=device)
 
 
 def network_of(name: str, model: torch.nn.Module) -> list[torch.nn.Module]:

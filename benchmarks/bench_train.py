@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 import torch
 from _timing import add_timing_arguments, apply_threads, interleaved, ratio, ratio_text, spread, write_records
+from _trainers import book_trainer, diffusion_parts
 
 from motionlab.data import load_dataset
 from motionlab.precision import explain_precision, read_cpu_info
@@ -47,79 +48,14 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 # -- training: one Trainer per model and precision ------------------------------------------------------------------
-def tokenizer_trainer(kind: str, dataset, precision: str):
-    from motionlab.tokenizers import build_tokenizer, rvq_config, vq_config
-    from motionlab.tokenizers.training import tokenizer_trainer
-
-    model = build_tokenizer((vq_config if kind == "vq" else rvq_config)("laptop"))
-    return tokenizer_trainer(model, dataset.normalized("train"), progress=False, precision=precision)
-
-
-def discord_trainer(dataset, precision: str):
-    from motionlab.flow import DisCoRDDecoder, discord_config
-    from motionlab.flow.training import discord_trainer
-    from motionlab.tokenizers import build_tokenizer, rvq_config
-
-    tokenizer = build_tokenizer(rvq_config("laptop")).eval()
-    model = DisCoRDDecoder(discord_config("laptop", tokenizer=tokenizer))
-    return discord_trainer(model, tokenizer, dataset.normalized("train"), progress=False, precision=precision)
-
-
-def diffusion_parts(dataset):
-    """The laptop text-to-motion networks' inputs: VQ tokens of the train clips, captions, transitions, config."""
-    from motionlab.diffusion.training import (
-        build_vocabulary,
-        diffusion_training_config,
-        make_transitions,
-        tokenize_clips,
-    )
-    from motionlab.tokenizers import build_tokenizer, vq_config
-
-    tokenizer = build_tokenizer(vq_config("laptop")).eval()
-    config = diffusion_training_config("laptop", num_codes=tokenizer.codebook_size)
-    captions = [[c.text for c in clip.captions] for clip in dataset.split("train")]
-    sequences = tokenize_clips(tokenizer, dataset.normalized("train"))
-    transitions = make_transitions(config.transformer, tokenizer.codebook().cpu())
-    return tokenizer, config, captions, sequences, transitions, build_vocabulary(captions, config)
-
-
-def diffusion_trainer(parts, precision: str):
-    from motionlab.diffusion.training import TextToMotionNetworks, text_to_motion_trainer
-
-    _, config, captions, sequences, transitions, vocabulary = parts
-    networks = TextToMotionNetworks(config, vocabulary)
-    return text_to_motion_trainer(
-        networks, sequences, captions, transitions, config, progress=False, precision=precision
-    )
-
-
-def evaluator_trainer(dataset, precision: str):
-    from motionlab.metrics.evaluator_training import (
-        EvaluatorNetworks,
-        build_vocabulary,
-        evaluator_config,
-        evaluator_trainer,
-    )
-
-    config = evaluator_config("laptop")
-    vocabulary = build_vocabulary(dataset, config)
-    model = EvaluatorNetworks(config.evaluator, len(vocabulary), torch.Generator().manual_seed(config.seed))
-    return evaluator_trainer(model, dataset, vocabulary, config, precision=precision)
-
-
 def training_rounds(
     name: str, dataset, parts, steps: int, precisions: tuple[str, ...] = PRECISIONS
 ) -> dict[str, Callable[[], None]]:
     """``{precision: one round of `steps` training steps}`` for model ``name``."""
 
     def build(precision: str):
-        if name in ("vq", "rvq"):
-            return tokenizer_trainer(name, dataset, precision)
-        if name == "discord":
-            return discord_trainer(dataset, precision)
-        if name == "diffusion":
-            return diffusion_trainer(parts, precision)
-        return evaluator_trainer(dataset, precision)
+        model = "t2m" if name == "diffusion" else name  # this benchmark's name for the text-to-motion networks
+        return book_trainer(model, "laptop", dataset, precision, parts=parts)[0]
 
     def round_of(trainer) -> Callable[[], None]:
         def run() -> None:
@@ -158,10 +94,15 @@ def sampler_rounds(
         from motionlab.diffusion.pipeline import TextToMotion
         from motionlab.diffusion.training import TextToMotionNetworks
 
-        tokenizer, config, captions, _, transitions, vocabulary = parts
-        networks = TextToMotionNetworks(config, vocabulary).eval()
+        config = parts.config
+        networks = TextToMotionNetworks(config, parts.vocabulary).eval()
         pipe = TextToMotion(
-            tokenizer, networks.text_encoder, networks.denoiser, transitions, dataset.normalizer, config.transformer
+            parts.tokenizer,
+            networks.text_encoder,
+            networks.denoiser,
+            parts.transitions,
+            dataset.normalizer,
+            config.transformer,
         )
         clips = dataset.split("test")
         if name == "diffusion-sample":
@@ -220,7 +161,7 @@ def main() -> None:
     print(f"{cpu}; {threads} thread(s); auto here = {auto} ({why}); dataset {dataset.key}")
     parts = None
     if {"diffusion", *SAMPLERS} & set(args.models) - {"discord-decode"}:
-        parts = diffusion_parts(dataset)
+        parts = diffusion_parts(dataset, "laptop")
     records, lines = [], []
     for name in args.models:
         if name in TRAINED:
