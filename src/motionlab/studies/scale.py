@@ -1,0 +1,234 @@
+"""The scale study run point by point: train a point's models at a multiple of the laptop budget, score them with the
+chapters' evaluations, and predict what a point costs on a GPU from the GPU benchmark's measured step times.
+
+What a point is, and how a multiple changes a model's training, is :mod:`motionlab.evaluation.scale`'s (the book
+reads the records through :mod:`motionlab.report.scale`); ``experiments/scale.py`` runs the points and writes them.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from motionlab.estimate import Estimate
+from motionlab.evaluation.scale import (
+    GROUPS,
+    PROJECTIONS,
+    group_evaluations,
+    group_models,
+    point_configs,
+    scaled_budgets,
+    training_steps,
+)
+
+# The GPU benchmark's name for each kind of model it timed (``book/data/gpu/*.json``, :mod:`motionlab.report.gpu`).
+# The VQ tokenizer was not timed: its points have no predicted time rather than a borrowed one.
+BENCHMARKED = {"tokenizer/rvq": "rvq", "discord/": "discord", "t2m/": "t2m"}
+TIMED_VARIANT = "library train_step"  # what the study runs: the library's trainer, not the bare module
+
+
+def benchmark_kind(model: str) -> str | None:
+    """The benchmark's model behind ``model``'s training step (None: not timed on a GPU)."""
+    return next((kind for prefix, kind in BENCHMARKED.items() if model.startswith(prefix)), None)
+
+
+def _log(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)
+
+
+# ----------------------------------------------------------------------------------------------------- the plan
+@dataclass(frozen=True)
+class PlannedModel:
+    """One model of a point: its steps and batch at the multiple, and its predicted GPU seconds (None: no rate)."""
+
+    name: str
+    steps: int
+    batch: int
+    seconds: float | None
+    why: str  # where the prediction comes from, or why there is none
+
+
+@dataclass(frozen=True)
+class Point:
+    """One group at one multiple, with the batch factor it trains at."""
+
+    group: str
+    multiple: float
+    batch_factor: int = 1
+
+    @property
+    def key(self) -> str:
+        """The record's file stem: ``discord-x10``."""
+        return f"{self.group}-x{self.multiple:g}"
+
+
+def auto_batch_factor(multiple: float, group: str, profile: str, device: str, run=None) -> int:
+    """The batch factor of a point: 1 on a CPU (the laptop's batch); on a GPU the largest power of two that keeps
+    every model's batch within the batch the GPU benchmark timed it at (so that the benchmark's step time bounds this
+    point's step from above) and the steps at least the profile's (``b ≤ multiple``)."""
+    if not device.startswith("cuda") or run is None:
+        return 1
+    profile_batches = {name: training_steps(c)[1] for name, c in _configs(Point(group, 1), profile).items()}
+    limit = max(1, int(multiple))
+    for name, batch in profile_batches.items():
+        timed = _timed_batch(run, benchmark_kind(name))
+        if timed is not None:
+            limit = min(limit, max(1, timed // batch))
+    factor = 1
+    while factor * 2 <= limit:
+        factor *= 2
+    return factor
+
+
+def _timed_batch(run, kind: str | None) -> int | None:
+    batches = [r["batch"] for r in run.train if r["model"] == kind and r["variant"] == TIMED_VARIANT]
+    return min(batches) if batches else None
+
+
+def _configs(point: Point, profile: str) -> dict[str, Any]:
+    """The training configs (JSON dicts) of the models ``point`` trains, at its multiple."""
+    models = point_configs(point.group, point.multiple, point.batch_factor, profile)["models"]
+    return {name: models[name] for name in group_models(point.group)}
+
+
+def plan_point(point: Point, profile: str, run=None, precision: str = "bf16") -> list[PlannedModel]:
+    """Each model of ``point`` with its steps, batch and predicted seconds: steps × the library's step time that
+    ``run`` (a :class:`~motionlab.report.gpu.GPURun`) measured for its kind at the papers' widths and a batch at least
+    this one's, an upper bound for the laptop's narrower networks. None where ``run`` timed no such step."""
+    planned = []
+    for name, config in _configs(point, profile).items():
+        steps, batch = training_steps(config)
+        kind = benchmark_kind(name)
+        ms = run.step_ms(kind, TIMED_VARIANT, precision) if run is not None and kind else None
+        if ms is None:
+            why = "no GPU record" if run is None else f"no measured {precision} rate for {name} in {run.path.name}"
+            planned.append(PlannedModel(name, steps, batch, None, why))
+        else:
+            why = f"{steps:,} steps × {ms:g} ms ({kind}, {precision}, {run.path.name})"
+            planned.append(PlannedModel(name, steps, batch, steps * ms / 1e3, why))
+    return planned
+
+
+def predicted_seconds(planned: list[PlannedModel]) -> float | None:
+    """A point's predicted training seconds, or None where any of its models has no measured rate."""
+    seconds = [m.seconds for m in planned]
+    return None if any(s is None for s in seconds) else sum(seconds)
+
+
+def plan_lines(points: list[Point], profile: str, run=None, precision: str = "bf16", done=()) -> list[str]:
+    """The plan as lines for a reader: each point, its models' steps × batch and predicted time, and the total."""
+    source = f"GPU benchmark {run.path.name} ({run.machine['device']})" if run is not None else "no GPU record"
+    lines = [f"scale study plan, profile {profile}, predicted from {source}, library train_step in {precision}:"]
+    total, unknown = 0.0, 0
+    for point in points:
+        planned = plan_point(point, profile, run, precision)
+        seconds = predicted_seconds(planned)
+        status = "recorded" if point.key in done else (f"~{seconds / 60:.1f} min" if seconds is not None else "?")
+        lines.append(f"  {point.key} (batch ×{point.batch_factor}): {status}")
+        for m in planned:
+            time_text = f"{m.seconds / 60:.2f} min" if m.seconds is not None else "not predicted"
+            lines.append(f"    {m.name}: {m.steps:,} steps × batch {m.batch}: {time_text} ({m.why})")
+        if point.key not in done:
+            total += seconds or 0.0
+            unknown += seconds is None
+    tail = f"; {unknown} point(s) with a model the benchmark did not time" if unknown else ""
+    lines.append(f"  to do: ~{total / 60:.1f} min of training predicted{tail}; scoring is not timed on a GPU")
+    return lines
+
+
+# ------------------------------------------------------------------------------------------- train and score
+def train_point(point: Point, dataset, profile: str, device: str | None) -> dict[str, float]:
+    """Train (or load from the cache) each model of ``point`` inside its scaled budget: seconds per model."""
+    from motionlab import models
+
+    seconds = {}
+    with scaled_budgets(point.multiple, point.batch_factor, profile):
+        for name in group_models(point.group):
+            start = time.perf_counter()
+            _log(f"{point.key}: training (or loading) {name}")
+            models.load(name, dataset, profile, device=device)
+            seconds[name] = round(time.perf_counter() - start, 1)
+            _log(f"{point.key}: {name} ready in {seconds[name]:.1f} s")
+    return seconds
+
+
+def score_point(point: Point, dataset, profile: str, device: str | None) -> tuple[dict[str, Estimate], dict]:
+    """The claim numbers of ``point`` (``{"discord/sjpe_rf": Estimate, ...}``) and its tables as JSON dicts, from the
+    chapters' evaluations of the models trained at its multiple."""
+    evaluations = group_evaluations(point.group, profile)
+    with scaled_budgets(point.multiple, point.batch_factor, profile):
+        _log(f"{point.key}: scoring with {', '.join(evaluations)}")
+        return SCORERS[point.group](evaluations, dataset, profile, device)
+
+
+def _discord(evaluations: dict, dataset, profile: str, device) -> tuple[dict[str, Estimate], dict]:
+    """Chapter 05's claim cells, and the paired differences over the test clips it records beside them."""
+    from motionlab.evaluation import evaluate_reconstruction, reconstruction_claim_cells, reconstruction_clip_cells
+
+    config = evaluations["reconstruction"]
+    table = evaluate_reconstruction(dataset, config, profile, device=device)
+    cells = reconstruction_claim_cells(table, config)
+    values = {f"discord/{k}": table.estimate(row, m) for k, (row, m) in cells.items()}
+    for key, (a, b, metric) in reconstruction_clip_cells(table, config).items():
+        values[f"discord/{key}"] = table.paired_clips(a, b, metric)
+    return values, {"reconstruction": table.to_json_dict()}
+
+
+def _projection(evaluations: dict, dataset, profile: str, device) -> tuple[dict[str, Estimate], dict]:
+    """Chapter 04's ablation table of the three projection decoders on the point's RVQ tokens."""
+    from motionlab import models
+    from motionlab.studies.ablation import projection_ablation, projection_claim_cells
+
+    sizes = evaluations["projection"]
+    tokenizer = models.load("tokenizer/rvq", dataset, profile, device=device)
+    decoders = {p: models.load(f"discord/rvq-{p}", dataset, profile, device=device) for p in PROJECTIONS}
+    table = projection_ablation(
+        decoders, tokenizer, dataset, windows=sizes["windows"], clips=sizes["clips"], seed=sizes["seed"]
+    )
+    values = {f"projection/{k}": table.estimate(row, m) for k, (row, m) in projection_claim_cells(PROJECTIONS).items()}
+    return values, {"projection": table.to_json_dict()}
+
+
+def _m2d2m(evaluations: dict, dataset, profile: str, device) -> tuple[dict[str, Estimate], dict]:
+    """Chapter 09's multi-motion cells (the multi-motion model; TPS of the uniform one), chapter 07's guidance rows
+    and chapter 08's dynamic-vs-uniform FID, as the training-seed study reads them."""
+    from motionlab.evaluation import evaluate_multi, evaluate_t2m, multi_claim_cells
+
+    paper, arms, guidance, single = (evaluations[r] for r in ("multi", "multi_uniform", "guidance", "t2m"))
+    table, uniform_table = (evaluate_multi(dataset, c, profile, device=device) for c in (paper, arms))
+    t2m, transitions = (evaluate_t2m(dataset, c, profile, device=device) for c in (guidance, single))
+    values = {f"tps/{k}": table.estimate(row, m) for k, (row, m) in multi_claim_cells(table).items()}
+    values["tps/jerk_tps_uniform"] = uniform_table.estimate(multi_claim_cells(uniform_table)["jerk_tps"][0], "jerk")
+    dynamic = guidance.models[0]
+    values["diffusion/fid_guided"] = t2m.estimate(guidance.row(dynamic, 4.0), "fid")
+    values["diffusion/fid_unguided"] = t2m.estimate(guidance.row(dynamic, 0.0), "fid")
+    for arm, name in zip(("uniform", "dynamic"), single.models, strict=True):
+        for metric in ("fid", "top3"):
+            values[f"transitions/{metric}_{arm}"] = transitions.estimate(single.row(name), metric)
+    tables = {"multi": table, "multi_uniform": uniform_table, "guidance": t2m, "t2m": transitions}
+    return values, {role: t.to_json_dict() for role, t in tables.items()}
+
+
+SCORERS: dict[str, Callable] = {"discord": _discord, "projection": _projection, "m2d2m": _m2d2m}
+assert set(SCORERS) == set(GROUPS)
+
+
+def estimate_json(estimate: Estimate) -> dict[str, Any]:
+    """An estimate as the record stores it (the report reads it back with :func:`motionlab.report.scale`)."""
+    return {"mean": estimate.mean, "half_width": estimate.half_width, "n": estimate.n, "unit": estimate.unit}
+
+
+__all__ = [
+    "PlannedModel",
+    "Point",
+    "auto_batch_factor",
+    "benchmark_kind",
+    "plan_lines",
+    "plan_point",
+    "predicted_seconds",
+    "score_point",
+    "train_point",
+]
