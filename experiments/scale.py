@@ -7,16 +7,20 @@ A point is one model group at one multiple of the laptop's training samples, at 
 dynamic and multi-motion text-to-motion models). Every point is scored with one evaluator, the laptop's. The work is
 ordered so that each run adds the most: every group at 10×, then every group at 30×, then 100×, 300×, ...
 
-A GPU run (a lease of about 15 minutes, the machine's start included) from the repository root::
+A GPU run (a lease of about 15 minutes, the machine's start included, at most 10 minutes a command) from the
+repository root, with the records so far copied into ``$OUT/scale`` first (``SCALE_ONLY=1 tools/gpu_lease.sh`` does
+both)::
 
-    PYTHONPATH=src python experiments/scale.py --device cuda --minutes 12 --out $OUT/scale
+    PYTHONPATH=src python experiments/scale.py --device cuda --minutes 8 --out $OUT/scale
 
 then copy ``$OUT/scale/*.json`` into ``book/data/scale/embedded-v<N>/`` and commit them; the next run (with those
-records in place under ``--out``) continues with the first point not yet recorded. ``tools/gpu_lease.sh`` runs it
-with ``SCALE_ONLY=1``. ``--plan`` prints the plan and exits; every run prints it first, with each point's predicted
-time: steps × the library's training step as the GPU benchmark measured it (``book/data/gpu/*.json``, at the papers'
-widths and batch, so an upper bound for the laptop's narrower networks), or "not predicted" where the benchmark did
-not time a model (the VQ tokenizer). Scoring is not timed by the benchmark and comes on top.
+records in place under ``--out``) continues with the first point not yet recorded. Leave the command's own limit a
+point's length above ``--minutes``: the time is checked between points, and scoring is not predicted.
+
+``--plan`` prints the plan and exits; every run prints it first, with each point's predicted time: steps × the
+library's training step as the GPU benchmark measured it (``book/data/gpu/*.json``, at the papers' widths and batch,
+so an upper bound for the laptop's narrower networks), or "not predicted" where the benchmark did not time a model
+(the VQ tokenizer). Scoring is not timed by the benchmark and comes on top.
 
 Run by run: a point is the unit of work. A finished point is written at once (atomically) and never redone; a run
 with ``--minutes N`` always does its first pending point, then starts another only while the time left covers the
@@ -72,6 +76,17 @@ def _device_name(device: str) -> str:
     if device.startswith("cuda"):
         return torch.cuda.get_device_name(torch.device(device))
     return machine_stamp()["cpu"]
+
+
+def _precision(device: str) -> str:
+    """The precision the points train in on ``device``; planning a GPU run elsewhere, what ``auto`` resolves to on a
+    bf16 GPU such as the benchmark's (an explicit ``$MOTIONLAB_PRECISION`` is kept)."""
+    from motionlab.precision import requested_precision, resolve_precision
+
+    if device.startswith("cuda") and not torch.cuda.is_available():
+        requested = requested_precision(None)
+        return "bf16" if requested == "auto" else requested
+    return resolve_precision(None, device)
 
 
 def _gpu_run(path: Path | None):
@@ -167,7 +182,7 @@ def _parse(argv: list[str] | None) -> argparse.Namespace:
         parser.error("--batch-factor must be a power of two >= 1")
     if args.device == "auto":
         args.device = "cuda" if torch.cuda.is_available() else "cpu"
-    if args.device.startswith("cuda") and not torch.cuda.is_available():
+    if args.device.startswith("cuda") and not torch.cuda.is_available() and not args.plan:  # a plan trains nothing
         parser.error(f"--device {args.device}: torch sees no CUDA device here")
     if not (args.device == "cpu" or args.device.startswith("cuda")):
         parser.error(f"--device must be cpu, cuda, cuda:N or auto, got {args.device!r}")
@@ -178,11 +193,9 @@ def _parse(argv: list[str] | None) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> int:
     args = _parse(argv)
-    from motionlab.precision import resolve_precision
-
     torch.set_num_threads(1 if args.device == "cpu" else torch.get_num_threads())  # a shared CPU: one thread
     run = _gpu_run(args.gpu_record)
-    precision = resolve_precision(None, args.device)
+    precision = _precision(args.device)
     points = []
     for multiple in sorted(args.multiples):  # every group at a multiple before the next multiple
         for group in args.groups:

@@ -30,7 +30,7 @@ from motionlab.report.render import (
     verdicts_by_run,
 )
 from motionlab.report.rules import AtMost, Between, Claim, Evidence, Greater, Increasing, Less, Rule, Within
-from motionlab.report.scale import ScaleStudy, load_scale_study, scale_study_note
+from motionlab.report.scale import ScaleStudy, load_scale_study, scale_study_note, scale_verdicts
 from motionlab.report.spread import TrainingSpread, load_spread
 from motionlab.report.store import (
     CHAPTERS,
@@ -97,6 +97,7 @@ __all__ = [
     "results_dir",
     "repeat_check",
     "scale_study_note",
+    "scale_verdicts",
     "spread_table",
     "verdicts_by_run",
 ]

@@ -17,7 +17,7 @@ from motionlab import sizes
 from motionlab.evaluation.scale import check_point, point_changes, point_configs, scaled_budgets, training_steps
 from motionlab.report.gpu import load_gpu_runs
 from motionlab.report.render import claims_table
-from motionlab.report.scale import load_scale_study, scale_study_note, study_scale
+from motionlab.report.scale import load_scale_study, scale_study_note, scale_verdicts, study_scale
 from motionlab.results import CLAIMS
 from motionlab.studies.scale import Point, auto_batch_factor, plan_point
 
@@ -157,6 +157,10 @@ def test_the_records_read_back_into_the_claims_table(smoke, tmp_path, monkeypatc
     assert lines["discord/time_steps2 < discord/time_steps16"] == ""  # the study times nothing
     assert "not yet measured on a GPU" in scale_study_note(study)  # smoke ran on the CPU
     assert "By training samples" in table.html() and "By training samples" in table.to_markdown()
+    verdicts = scale_verdicts(table.rows, study)
+    assert verdicts.columns == ("this build", "0.5×", "1×")
+    row = verdicts.rows["DisCoRD: Reconstruction FID improves with the flow decoder."]
+    assert row["this build"] == "not yet measured" and row["1×"] in ("holds", "does not hold", "inconclusive")
     with pytest.raises(TypeError, match="scale must be a ScaleStudy"):
         claims_table("smoke", scale=5, budget=None, spread=None)
 

@@ -17,7 +17,8 @@ study           models (seed k > 0 adds ``-seed<k>``) and their evaluation
 ``transitions`` ``t2m/uniform`` and ``t2m/dynamic`` scored by chapter 08's table (single motions at s = 4)
 ==============  =====================================================================================================
 
-The budget study and the η axis (``experiments/m2d2m_budget.py``) are checked the same way: :func:`budget_changes`.
+The budget study and the η axis (``experiments/m2d2m_budget.py``) are checked the same way: :func:`budget_changes`;
+the scale study (``experiments/scale.py``) too, with :func:`motionlab.evaluation.scale.point_changes`.
 """
 
 from __future__ import annotations

@@ -26,7 +26,7 @@ from .rules import Greater, Less
 from .store import HOLDS, Result
 
 FOLDER = ("book", "data", "scale")
-GPU_COMMAND = "PYTHONPATH=src python experiments/scale.py --device cuda --minutes 12 --out $OUT/scale"
+GPU_COMMAND = "PYTHONPATH=src python experiments/scale.py --device cuda --minutes 8 --out $OUT/scale"
 
 
 def multiple_text(multiple: float) -> str:
@@ -172,10 +172,10 @@ def study_scale(claim, study: ScaleStudy) -> StudyScale | None:
     if not verdicts:
         return None
     largest = claim.rule.sentence(per_multiple[max(verdicts)])
-    return StudyScale(verdicts, where, largest, trend(claim.rule, per_multiple))
+    return StudyScale(verdicts, where, largest, gap_trend(claim.rule, per_multiple))
 
 
-def trend(rule, per_multiple: Mapping[float, Mapping[str, Result]]) -> str:
+def gap_trend(rule, per_multiple: Mapping[float, Mapping[str, Result]]) -> str:
     """For a rule comparing one pair (``a < b`` or ``a > b``): ``a − b`` at each multiple and whether it moves toward
     the claim's side; "" for other rules or a single multiple."""
     if not isinstance(rule, Less) or len(per_multiple) < 2:
@@ -207,6 +207,29 @@ def scale_study_note(study: ScaleStudy | None) -> str:
     return text + "."
 
 
+def scale_verdicts(rows, study: ScaleStudy, claims=None):
+    """Every claim's verdict at each recorded multiple next to this build's (``rows``: a claims table's rows, in the
+    order of ``claims``, default :data:`~motionlab.report.claims.CLAIMS`), as a :class:`~motionlab.viz.tables.Table`;
+    "–" where a multiple did not measure the claim's keys."""
+    from motionlab.viz.tables import Table
+
+    from .claims import CLAIMS
+
+    claims = CLAIMS if claims is None else claims
+    if not study.records:
+        raise ValueError("the scale study recorded no point: nothing to set beside this build's verdicts")
+    columns = ("this build", *(multiple_text(m) for m in study.multiples))
+    table = {}
+    for claim, row in zip(claims, rows, strict=True):
+        judged = study_scale(claim, study)
+        verdicts = judged.verdicts if judged is not None else {}
+        cells = {"this build": row.verdict}
+        cells |= {multiple_text(m): verdicts.get(m) for m in study.multiples}
+        table[f"{claim.paper}: {claim.statement}"] = cells
+    notes = [f"{multiple_text(m)}: {study.where(m)}" for m in study.multiples]
+    return Table("claim", table, columns, notes=("trained on: " + "; ".join(notes),))
+
+
 __all__ = [
     "GPU_COMMAND",
     "ScaleStudy",
@@ -215,6 +238,7 @@ __all__ = [
     "multiple_text",
     "read_scale_records",
     "scale_study_note",
+    "scale_verdicts",
     "study_scale",
-    "trend",
+    "gap_trend",
 ]

@@ -16,9 +16,11 @@ module                      study
 ``diffusion_diagnostics``   chapters 07-08: the x_0 entropy table, the forward processes' distance per η
 ``transitions``             chapter 09: the transition Jerk at each boundary of one example
 ``precision_parity``        chapter 98: bf16 against fp32, the recorded parity runs
+``scale``                   chapter 99: the scale study's points trained, scored and planned (``experiments/scale.py``)
 ==========================  ==========================================================================================
 
 The training-seed, budget and η studies feed the claims table's verdicts, so they are read by
 :mod:`motionlab.report` (``spread``, ``budget``), and what each of them trains and scores is defined by
-:mod:`motionlab.evaluation.studies`, below it.
+:mod:`motionlab.evaluation.studies`, below it; the scale study's points likewise by :mod:`motionlab.evaluation.scale`
+(read by :mod:`motionlab.report.scale`).
 """
