@@ -17,10 +17,12 @@ then copy ``$OUT/scale/*.json`` into ``book/data/scale/embedded-v<N>/`` and comm
 records in place under ``--out``) continues with the first point not yet recorded. Leave the command's own limit a
 point's length above ``--minutes``: the time is checked between points, and scoring is not predicted.
 
-``--plan`` prints the plan and exits; every run prints it first, with each point's predicted time: steps × the
-library's training step as the GPU benchmark measured it (``book/data/gpu/*.json``, at the papers' widths and batch,
-so an upper bound for the laptop's narrower networks), or "not predicted" where the benchmark did not time a model
-(the VQ tokenizer). Scoring is not timed by the benchmark and comes on top.
+``--plan`` prints the plan and exits; every run prints it first, with each point's predicted time: each model's
+steps × its step time as an earlier point in ``--out`` measured it on this kind of device at this batch, else as the
+GPU benchmark measured the library's training step (``book/data/gpu/*.json``, at the papers' widths and batch, so an
+upper bound for the laptop's narrower networks), else "not predicted" (the benchmark did not time the VQ tokenizer);
+plus the group's scoring time where an earlier point measured it (the evaluations do not grow with the multiple).
+The first GPU run thus predicts from the benchmark and every later one from the points before it.
 
 Run by run: a point is the unit of work. A finished point is written at once (atomically) and never redone; a run
 with ``--minutes N`` always does its first pending point, then starts another only while the time left covers the
@@ -52,10 +54,13 @@ from motionlab.evaluation.scale import GROUPS, MULTIPLES, point_changes
 from motionlab.io.common import write_text_atomic
 from motionlab.studies.scale import (
     Point,
+    Rates,
     auto_batch_factor,
     estimate_json,
+    measured_rates,
     plan_lines,
     plan_point,
+    point_seconds,
     predicted_seconds,
     score_point,
     train_point,
@@ -99,23 +104,28 @@ def _gpu_run(path: Path | None):
     return runs[-1] if runs else None
 
 
-def _recorded(path: Path, profile: str) -> bool:
-    """Whether ``path`` holds this point as the code would measure it now (a stale record is measured again)."""
-    if not path.exists():
-        return False
-    changes = point_changes(json.loads(path.read_text()), profile)
-    if changes:
-        _log(f"{path.name}: recorded with other configs ({', '.join(changes[:3])}): measuring it again")
-    elif changes is None:
-        _log(f"{path.name}: recorded without its configs: measuring it again")
-    return not changes and changes is not None
+def _recorded(out: Path, profile: str) -> dict[str, dict]:
+    """The points recorded in ``out`` as the code would measure them now, by key (a stale one is measured again)."""
+    records = {}
+    for path in sorted(out.glob("*.json")) if out.is_dir() else ():
+        record = json.loads(path.read_text())
+        if record.get("study") != "scale" or record.get("profile") != profile:
+            continue
+        changes = point_changes(record, profile)
+        if changes:
+            _log(f"{path.name}: recorded with other configs ({', '.join(changes[:3])}): measuring it again")
+        elif changes is None:
+            _log(f"{path.name}: recorded without its configs: measuring it again")
+        else:
+            records[path.stem] = record
+    return records
 
 
-def run_point(point: Point, profile: str, device: str, precision: str, run) -> dict:
+def run_point(point: Point, profile: str, device: str, rates: Rates) -> dict:
     """Train and score one point: its record."""
     from motionlab import models
 
-    planned = {m.name: m for m in plan_point(point, profile, run, precision)}
+    planned = {m.name: m for m in plan_point(point, profile, rates)}
     dataset = models.load("data", None, profile)
     start = time.perf_counter()
     training = train_point(point, dataset, profile, device)
@@ -131,10 +141,10 @@ def run_point(point: Point, profile: str, device: str, precision: str, run) -> d
         **stamp,
         "device": _device_name(device),
         "device_type": device.split(":")[0],
-        "precision": precision,
+        "precision": rates.precision,
         "torch": torch.__version__,
         "data": dataset.key,
-        "models": {n: {"steps": m.steps, "batch": m.batch, "seconds": training[n]} for n, m in planned.items()},
+        "models": {n: {"steps": m.steps, "batch": m.batch, **training[n]} for n, m in planned.items()},
         "seconds": {
             "training": round(scoring_start - start, 1),
             "scoring": round(time.perf_counter() - scoring_start, 1),
@@ -195,14 +205,16 @@ def main(argv: list[str] | None = None) -> int:
     args = _parse(argv)
     torch.set_num_threads(1 if args.device == "cpu" else torch.get_num_threads())  # a shared CPU: one thread
     run = _gpu_run(args.gpu_record)
-    precision = _precision(args.device)
+    precision, device_type = _precision(args.device), args.device.split(":")[0]
     points = []
     for multiple in sorted(args.multiples):  # every group at a multiple before the next multiple
         for group in args.groups:
             factor = args.batch_factor or auto_batch_factor(multiple, group, args.profile, args.device, run)
             points.append(Point(group, multiple, factor))
-    done = {p.key for p in points if _recorded(args.out / f"{p.key}.json", args.profile)}
-    print("\n".join(plan_lines(points, args.profile, run, precision, done)), flush=True)
+    records = _recorded(args.out, args.profile)
+    done = {p.key for p in points if p.key in records}
+    rates = measured_rates(list(records.values()), device_type, precision, run)
+    print("\n".join(plan_lines(points, args.profile, rates, done, args.minutes)), flush=True)
     if args.plan:
         return 0
     args.out.mkdir(parents=True, exist_ok=True)
@@ -212,13 +224,14 @@ def main(argv: list[str] | None = None) -> int:
         if point.key in done:
             _log(f"{point.key}: recorded already")
             continue
-        predicted = predicted_seconds(plan_point(point, args.profile, run, precision))
-        if deadline is not None and finished and _no_time(deadline, predicted):
+        if deadline is not None and finished and _no_time(deadline, point_seconds(point, args.profile, rates)):
             left = [p.key for p in points if p.key not in done]
             print(f"stopping: {len(left)} point(s) left ({', '.join(left)}); run again to continue", flush=True)
             return 0
-        record = run_point(point, args.profile, args.device, precision, run)
+        record = run_point(point, args.profile, args.device, rates)
         write_text_atomic(args.out / f"{point.key}.json", json.dumps(record, indent=1) + "\n")
+        records[point.key] = record
+        rates = measured_rates(list(records.values()), device_type, precision, run)  # the next points' predictions
         done.add(point.key)
         finished += 1
         seconds = record["seconds"]

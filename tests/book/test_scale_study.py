@@ -19,7 +19,7 @@ from motionlab.report.gpu import load_gpu_runs
 from motionlab.report.render import claims_table
 from motionlab.report.scale import load_scale_study, scale_study_note, scale_verdicts, study_scale
 from motionlab.results import CLAIMS
-from motionlab.studies.scale import Point, auto_batch_factor, plan_point
+from motionlab.studies.scale import Point, Rates, auto_batch_factor, measured_rates, plan_point, point_seconds
 
 REPO = Path(__file__).resolve().parents[2]
 SCRIPT = REPO / "experiments" / "scale.py"
@@ -76,9 +76,32 @@ def test_the_batch_grows_on_a_gpu_up_to_the_benchmarked_batch():
     assert auto_batch_factor(10, "discord", "laptop", "cuda", run) == 8  # the RVQ step was timed at 256 = 8 × 32
     assert auto_batch_factor(10, "m2d2m", "laptop", "cuda", run) == 2  # the text-to-motion step at 64 = 2 × 32
     assert auto_batch_factor(1, "m2d2m", "laptop", "cuda", run) == 1  # never fewer steps than the laptop's
-    planned = {m.name: m for m in plan_point(Point("m2d2m", 10, 2), "laptop", run, "bf16")}
+    planned = {m.name: m for m in plan_point(Point("m2d2m", 10, 2), "laptop", Rates("bf16", run))}
     assert planned["t2m/dynamic"].steps == 4000 and planned["t2m/dynamic"].seconds == pytest.approx(4000 * 0.0982)
-    assert planned["tokenizer/vq"].seconds is None and "no measured bf16 rate" in planned["tokenizer/vq"].why
+    assert planned["tokenizer/vq"].seconds is None and "no bf16 rate for it" in planned["tokenizer/vq"].why
+
+
+def test_a_point_measured_here_predicts_the_next_better_than_the_benchmark():
+    (run,) = load_gpu_runs(REPO / "book" / "data" / "gpu")[-1:]
+    measured = {
+        "group": "m2d2m",
+        "multiple": 10.0,
+        "device_type": "cuda",
+        "precision": "bf16",
+        "models": {
+            "tokenizer/vq": {"steps": 10000, "batch": 64, "seconds": 50.0, "trained": True},
+            "t2m/dynamic": {"steps": 4000, "batch": 64, "seconds": 1.0, "trained": False},  # loaded: times nothing
+        },
+        "seconds": {"scoring": 90.0},
+    }
+    rates = measured_rates([measured], "cuda", "bf16", run)
+    assert measured_rates([measured], "cuda", "fp32", run).steps == {}  # another precision is another machine
+    planned = {m.name: m for m in plan_point(Point("m2d2m", 30, 2), "laptop", rates)}
+    tokenizer = planned["tokenizer/vq"]
+    assert tokenizer.seconds == pytest.approx(30000 * 0.005) and "measured in m2d2m-x10" in tokenizer.why
+    assert planned["t2m/dynamic"].seconds == pytest.approx(12000 * 0.0982)  # still the benchmark's bound
+    expected = sum(m.seconds for m in planned.values()) + 90.0
+    assert point_seconds(Point("m2d2m", 30, 2), "laptop", rates) == pytest.approx(expected)
 
 
 def test_bad_arguments_are_clear_errors(capsys):
@@ -126,9 +149,12 @@ def test_a_run_stops_between_points_and_the_next_continues(smoke):
 
 def test_every_run_prints_its_plan_first(smoke):
     plan = smoke["first"].stdout.splitlines()
-    assert plan[0].startswith("scale study plan, profile smoke, predicted from GPU benchmark")
+    assert plan[0].startswith("scale study plan, profile smoke") and "GPU benchmark 2026-12-04-h200" in plan[1]
     assert any("t2m/dynamic: 150 steps × batch 16" in line and "98.2 ms" in line for line in plan)
     assert any("tokenizer/vq" in line and "not predicted" in line for line in plan)
+    # the second run predicted from the point the first one measured on this CPU
+    assert "tokenizer/rvq: 40 steps × batch 8" in smoke["second"].stdout
+    assert "measured in discord-x0.5" in smoke["second"].stdout
     again = _run("--smoke", "--plan", "--out", str(smoke["out"]), home=smoke["home"]).stdout
     assert "discord-x0.5 (batch ×1): recorded" in again and "to do: ~0.0 min" in again
 
@@ -138,6 +164,7 @@ def test_a_record_carries_the_machine_and_its_configs(smoke):
     assert {"device", "precision", "torch", "commit", "data", "configs", "values", "tables"} <= set(record)
     assert record["device_type"] == "cpu" and record["multiple"] == 1.0 and record["batch_factor"] == 1
     assert record["models"]["t2m/dynamic"] == record["models"]["t2m/dynamic"] | {"steps": 150, "batch": 16}
+    assert record["models"]["t2m/dynamic"]["trained"]  # a fresh cache: every model of the point trained in it
     assert point_changes(record, "smoke") == []
 
 

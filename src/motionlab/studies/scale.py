@@ -10,7 +10,7 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from motionlab.estimate import Estimate
@@ -94,65 +94,131 @@ def _configs(point: Point, profile: str) -> dict[str, Any]:
     return {name: models[name] for name in group_models(point.group)}
 
 
-def plan_point(point: Point, profile: str, run=None, precision: str = "bf16") -> list[PlannedModel]:
-    """Each model of ``point`` with its steps, batch and predicted seconds: steps × the library's step time that
-    ``run`` (a :class:`~motionlab.report.gpu.GPURun`) measured for its kind at the papers' widths and a batch at least
-    this one's, an upper bound for the laptop's narrower networks. None where ``run`` timed no such step."""
+@dataclass(frozen=True)
+class Rates:
+    """What a plan predicts from: the GPU benchmark's run (``run``, a :class:`~motionlab.report.gpu.GPURun`, or None),
+    and the points already recorded on this kind of device in this precision (:func:`measured_rates`), which beat the
+    benchmark where they measured the same model at the same batch."""
+
+    precision: str = "bf16"
+    run: Any = None
+    steps: dict[tuple[str, int], tuple[float, str]] = field(default_factory=dict)  # (model, batch) -> (ms, point)
+    scoring: dict[str, tuple[float, str]] = field(default_factory=dict)  # group -> (seconds, point)
+
+    def step_ms(self, name: str, batch: int) -> tuple[float | None, str]:
+        """One training step of ``name`` at ``batch`` in milliseconds, and where that number comes from."""
+        if (name, batch) in self.steps:
+            ms, point = self.steps[name, batch]
+            return ms, f"{ms:.3g} ms measured in {point}"
+        kind = benchmark_kind(name)
+        ms = self.run.step_ms(kind, TIMED_VARIANT, self.precision) if self.run is not None and kind else None
+        if ms is None:
+            source = "no GPU record" if self.run is None else f"no {self.precision} rate for it in {self.run.path.name}"
+            return None, source
+        return ms, f"{ms:g} ms ({kind}, {self.precision}, {self.run.path.name}: an upper bound)"
+
+
+def measured_rates(records: list[dict], device_type: str, precision: str, run=None) -> Rates:
+    """:class:`Rates` with the step times and scoring times that ``records`` (points written by
+    ``experiments/scale.py``) measured on ``device_type`` in ``precision``: a model's seconds over its steps where the
+    point trained it (a model loaded from the cache measured nothing), and a group's scoring seconds (its evaluation
+    does not depend on the multiple)."""
+    steps, scoring = {}, {}
+    for record in sorted(records, key=lambda r: r["multiple"]):  # the largest multiple last: it wins
+        if record.get("device_type") != device_type or record.get("precision") != precision:
+            continue
+        point = f"{record['group']}-x{record['multiple']:g}"
+        for name, model in record["models"].items():
+            if model.get("trained") and model["steps"]:
+                steps[name, model["batch"]] = (1e3 * model["seconds"] / model["steps"], point)
+        scoring[record["group"]] = (record["seconds"]["scoring"], point)
+    return Rates(precision, run, steps, scoring)
+
+
+def plan_point(point: Point, profile: str, rates: Rates) -> list[PlannedModel]:
+    """Each model of ``point`` with its steps, batch and predicted training seconds: steps × the step time measured
+    in an earlier point here, else the library's step the GPU benchmark timed for its kind at the papers' widths and
+    a batch at least this one's (an upper bound for the laptop's narrower networks). None where neither measured it."""
     planned = []
     for name, config in _configs(point, profile).items():
         steps, batch = training_steps(config)
-        kind = benchmark_kind(name)
-        ms = run.step_ms(kind, TIMED_VARIANT, precision) if run is not None and kind else None
-        if ms is None:
-            why = "no GPU record" if run is None else f"no measured {precision} rate for {name} in {run.path.name}"
-            planned.append(PlannedModel(name, steps, batch, None, why))
-        else:
-            why = f"{steps:,} steps × {ms:g} ms ({kind}, {precision}, {run.path.name})"
-            planned.append(PlannedModel(name, steps, batch, steps * ms / 1e3, why))
+        ms, source = rates.step_ms(name, batch)
+        seconds = None if ms is None else steps * ms / 1e3
+        planned.append(PlannedModel(name, steps, batch, seconds, source))
     return planned
 
 
-def predicted_seconds(planned: list[PlannedModel]) -> float | None:
-    """A point's predicted training seconds, or None where any of its models has no measured rate."""
+def predicted_seconds(planned: list[PlannedModel], scoring: float | None = 0.0) -> float | None:
+    """A point's predicted seconds (its training, plus ``scoring`` where known), or None where any of its models has
+    no measured rate."""
     seconds = [m.seconds for m in planned]
-    return None if any(s is None for s in seconds) else sum(seconds)
+    return None if any(s is None for s in seconds) else sum(seconds) + (scoring or 0.0)
 
 
-def plan_lines(points: list[Point], profile: str, run=None, precision: str = "bf16", done=()) -> list[str]:
-    """The plan as lines for a reader: each point, its models' steps × batch and predicted time, and the total."""
+def point_seconds(point: Point, profile: str, rates: Rates) -> float | None:
+    """A point's predicted seconds, training and (where an earlier point measured it) scoring."""
+    scoring = rates.scoring.get(point.group, (None, ""))[0]
+    return predicted_seconds(plan_point(point, profile, rates), scoring)
+
+
+def plan_lines(points: list[Point], profile: str, rates: Rates, done=(), minutes: float | None = None) -> list[str]:
+    """The plan as lines for a reader: each point, its models' steps × batch and predicted time, and the total; a
+    point predicted to outlast ``minutes`` (one run) is flagged."""
+    run = rates.run
     source = f"GPU benchmark {run.path.name} ({run.machine['device']})" if run is not None else "no GPU record"
-    lines = [f"scale study plan, profile {profile}, predicted from {source}, library train_step in {precision}:"]
+    lines = [f"scale study plan, profile {profile}, {rates.precision}; step times from the points recorded here, else"]
+    lines.append(f"  the library's train_step in {source}:")
     total, unknown = 0.0, 0
     for point in points:
-        planned = plan_point(point, profile, run, precision)
-        seconds = predicted_seconds(planned)
+        planned = plan_point(point, profile, rates)
+        scoring, scored_in = rates.scoring.get(point.group, (None, ""))
+        seconds = predicted_seconds(planned, scoring)
         status = "recorded" if point.key in done else (f"~{seconds / 60:.1f} min" if seconds is not None else "?")
+        if point.key not in done and minutes is not None and seconds is not None and seconds > 60 * minutes:
+            status += f" (more than --minutes {minutes:g}: it may not finish in one run)"
         lines.append(f"  {point.key} (batch ×{point.batch_factor}): {status}")
         for m in planned:
             time_text = f"{m.seconds / 60:.2f} min" if m.seconds is not None else "not predicted"
             lines.append(f"    {m.name}: {m.steps:,} steps × batch {m.batch}: {time_text} ({m.why})")
+        scored = f"{scoring / 60:.2f} min (measured in {scored_in})" if scoring is not None else "not predicted"
+        lines.append(f"    scoring: {scored}")
         if point.key not in done:
             total += seconds or 0.0
             unknown += seconds is None
-    tail = f"; {unknown} point(s) with a model the benchmark did not time" if unknown else ""
-    lines.append(f"  to do: ~{total / 60:.1f} min of training predicted{tail}; scoring is not timed on a GPU")
+    tail = f"; {unknown} point(s) with a model nothing has timed" if unknown else ""
+    lines.append(f"  to do: ~{total / 60:.1f} min predicted{tail}")
     return lines
 
 
 # ------------------------------------------------------------------------------------------- train and score
-def train_point(point: Point, dataset, profile: str, device: str | None) -> dict[str, float]:
-    """Train (or load from the cache) each model of ``point`` inside its scaled budget: seconds per model."""
+def train_point(point: Point, dataset, profile: str, device: str | None) -> dict[str, dict[str, Any]]:
+    """Train (or load from the cache) each model of ``point`` inside its scaled budget: ``{name: {"seconds": ...,
+    "trained": ...}}`` (a model found in the cache was not trained here, so its seconds time no training)."""
     from motionlab import models
 
-    seconds = {}
+    out = {}
     with scaled_budgets(point.multiple, point.batch_factor, profile):
         for name in group_models(point.group):
+            trained = not _cached(name, dataset, profile, device)
+            _log(f"{point.key}: {'training' if trained else 'loading'} {name}")
             start = time.perf_counter()
-            _log(f"{point.key}: training (or loading) {name}")
             models.load(name, dataset, profile, device=device)
-            seconds[name] = round(time.perf_counter() - start, 1)
-            _log(f"{point.key}: {name} ready in {seconds[name]:.1f} s")
-    return seconds
+            out[name] = {"seconds": round(time.perf_counter() - start, 2), "trained": trained}
+            _log(f"{point.key}: {name} ready in {out[name]['seconds']:.1f} s")
+    return out
+
+
+def _cached(name: str, dataset, profile: str, device: str | None) -> bool:
+    """Whether ``name`` would only be loaded (the cache's own probe, so it cannot disagree with the load)."""
+    from motionlab import models
+    from motionlab.train.cache import NotCached, cache_probe
+
+    with cache_probe():
+        try:
+            models.load(name, dataset, profile, device=device)
+        except NotCached:
+            return False
+    return True
 
 
 def score_point(point: Point, dataset, profile: str, device: str | None) -> tuple[dict[str, Estimate], dict]:
@@ -224,6 +290,9 @@ def estimate_json(estimate: Estimate) -> dict[str, Any]:
 __all__ = [
     "PlannedModel",
     "Point",
+    "Rates",
+    "measured_rates",
+    "point_seconds",
     "auto_batch_factor",
     "benchmark_kind",
     "plan_lines",
