@@ -50,7 +50,7 @@ import torch
 
 from motionlab.build.stamp import machine_stamp
 from motionlab.data.embedded.generator import VERSION
-from motionlab.evaluation.scale import GROUPS, MULTIPLES, point_changes
+from motionlab.evaluation.scale import GROUPS, MULTIPLES, point_changes, scaled_budgets
 from motionlab.io.common import write_text_atomic
 from motionlab.studies.scale import (
     Point,
@@ -198,6 +198,11 @@ def _parse(argv: list[str] | None) -> argparse.Namespace:
         parser.error(f"--device must be cpu, cuda, cuda:N or auto, got {args.device!r}")
     if args.gpu_record is not None and not args.gpu_record.is_file():
         parser.error(f"--gpu-record {args.gpu_record}: no such file")
+    try:  # a profile without budgets of its own (full: the papers') has nothing to multiply
+        with scaled_budgets(1, 1, args.profile):
+            pass
+    except ValueError as err:
+        parser.error(f"--profile {args.profile}: {err}")
     return args
 
 

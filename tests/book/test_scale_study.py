@@ -112,6 +112,8 @@ def test_bad_arguments_are_clear_errors(capsys):
         (["--minutes", "-1"], "--minutes must be > 0"),
         (["--device", "tpu"], "--device must be"),
         (["--gpu-record", "/nonexistent.json"], "no such file"),
+        (["--profile", "full"], "sets none"),
+        (["--profile", "huge"], "--profile huge"),
     ):
         with pytest.raises(SystemExit) as exit_:
             script.main(args)

@@ -65,7 +65,7 @@ class ScaleStudy:
             {
                 f"{r.get('device', r.get('cpu', '?'))}, {r.get('precision', '?')}"
                 for (_, m), r in self.records.items()
-                if m == multiple and (keys is None or any(f"{k}" in r.get("values", {}) for k in keys))
+                if m == multiple and (keys is None or any(k in r.get("values", {}) for k in keys))
             }
         )
         return " / ".join(found)
