@@ -209,7 +209,8 @@ def _parse(argv: list[str] | None) -> argparse.Namespace:
 def main(argv: list[str] | None = None) -> int:
     args = _parse(argv)
     torch.set_num_threads(1 if args.device == "cpu" else torch.get_num_threads())  # a shared CPU: one thread
-    run = _gpu_run(args.gpu_record)
+    # the GPU benchmark predicts a GPU run only: a CPU's steps are predicted by the points it measured itself
+    run = _gpu_run(args.gpu_record) if args.device.startswith("cuda") else None
     precision, device_type = _precision(args.device), args.device.split(":")[0]
     points = []
     for multiple in sorted(args.multiples):  # every group at a multiple before the next multiple

@@ -33,8 +33,8 @@ def _script():
     return module
 
 
-def _run(*args: str, home: Path) -> subprocess.CompletedProcess:
-    env = {**os.environ, "MOTIONLAB_HOME": str(home), "PYTHONPATH": str(REPO / "src")}
+def _run(*args: str, home: Path, **variables: str) -> subprocess.CompletedProcess:
+    env = {**os.environ, "MOTIONLAB_HOME": str(home), "PYTHONPATH": str(REPO / "src"), **variables}
     env.pop("MOTIONLAB_PROFILE", None)
     command = [sys.executable, str(SCRIPT), *args]
     done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=900, cwd=REPO)
@@ -158,9 +158,15 @@ def test_a_run_stops_between_points_and_the_next_continues(smoke):
 
 def test_every_run_prints_its_plan_first(smoke):
     plan = smoke["first"].stdout.splitlines()
-    assert plan[0].startswith("scale study plan, profile smoke") and "GPU benchmark 2026-12-04-h200" in plan[1]
-    assert any("t2m/dynamic: 150 steps × batch 16" in line and "98.2 ms" in line for line in plan)
-    assert any("tokenizer/vq" in line and "not predicted" in line for line in plan)
+    assert plan[0].startswith("scale study plan, profile smoke") and "no GPU benchmark" in plan[1]  # a CPU run
+    assert any("t2m/dynamic: 150 steps × batch 16: not predicted" in line for line in plan)
+    # planned for a GPU in bf16 (possible without one): the benchmark's measured step times
+    out = str(smoke["home"] / "none")
+    gpu = _run("--smoke", "--plan", "--device", "cuda", "--out", out, home=smoke["home"], MOTIONLAB_PRECISION="bf16")
+    gpu = gpu.stdout
+    assert "the GPU benchmark 2026-12-04-h200-note.json (NVIDIA H200)" in gpu.splitlines()[1]
+    assert any("t2m/dynamic: 150 steps × batch 16" in line and "98.2 ms" in line for line in gpu.splitlines())
+    assert any("tokenizer/vq" in line and "not predicted" in line for line in gpu.splitlines())
     # the second run predicted from the point the first one measured on this CPU
     assert "tokenizer/rvq: 40 steps × batch 8" in smoke["second"].stdout
     assert "measured in discord-x0.5" in smoke["second"].stdout

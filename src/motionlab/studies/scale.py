@@ -113,8 +113,9 @@ class Rates:
         kind = benchmark_kind(name)
         ms = self.run.step_ms(kind, TIMED_VARIANT, self.precision) if self.run is not None and kind else None
         if ms is None:
-            source = "no GPU record" if self.run is None else f"no {self.precision} rate for it in {self.run.path.name}"
-            return None, source
+            if self.run is None:
+                return None, "no GPU benchmark"
+            return None, f"no {self.precision} rate for it in {self.run.path.name}"
         return ms, f"{ms:g} ms ({kind}, {self.precision}, {self.run.path.name}: an upper bound)"
 
 
@@ -165,9 +166,12 @@ def plan_lines(points: list[Point], profile: str, rates: Rates, done=(), minutes
     """The plan as lines for a reader: each point, its models' steps × batch and predicted time, and the total; a
     point predicted to outlast ``minutes`` (one run) is flagged."""
     run = rates.run
-    source = f"GPU benchmark {run.path.name} ({run.machine['device']})" if run is not None else "no GPU record"
-    lines = [f"scale study plan, profile {profile}, {rates.precision}; step times from the points recorded here, else"]
-    lines.append(f"  the library's train_step in {source}:")
+    if run is not None:
+        source = f"else the library's train_step in the GPU benchmark {run.path.name} ({run.machine['device']})"
+    else:
+        source = "no GPU benchmark (it predicts GPU runs only)"
+    lines = [f"scale study plan, profile {profile}, {rates.precision}; step times from the points recorded here,"]
+    lines.append(f"  {source}:")
     total, unknown = 0.0, 0
     for point in points:
         planned = plan_point(point, profile, rates)
