@@ -236,12 +236,12 @@ def score_point(point: Point, dataset, profile: str, device: str | None) -> tupl
 
 def _discord(evaluations: dict, dataset, profile: str, device) -> tuple[dict[str, Estimate], dict]:
     """Chapter 05's claim cells, and the paired differences over the test clips it records beside them."""
-    from motionlab.evaluation import evaluate_reconstruction, reconstruction_claim_cells, reconstruction_clip_cells
+    from motionlab.evaluation import evaluate_reconstruction, reconstruction_clip_cells
+    from motionlab.evaluation.studies import reconstruction_values
 
     config = evaluations["reconstruction"]
     table = evaluate_reconstruction(dataset, config, profile, device=device)
-    cells = reconstruction_claim_cells(table, config)
-    values = {f"discord/{k}": table.estimate(row, m) for k, (row, m) in cells.items()}
+    values = reconstruction_values(table, config)
     for key, (a, b, metric) in reconstruction_clip_cells(table, config).items():
         values[f"discord/{key}"] = table.paired_clips(a, b, metric)
     return values, {"reconstruction": table.to_json_dict()}
@@ -265,19 +265,13 @@ def _projection(evaluations: dict, dataset, profile: str, device) -> tuple[dict[
 def _m2d2m(evaluations: dict, dataset, profile: str, device) -> tuple[dict[str, Estimate], dict]:
     """Chapter 09's multi-motion cells (the multi-motion model; TPS of the uniform one), chapter 07's guidance rows
     and chapter 08's dynamic-vs-uniform FID, as the training-seed study reads them."""
-    from motionlab.evaluation import evaluate_multi, evaluate_t2m, multi_claim_cells
+    from motionlab.evaluation import evaluate_multi, evaluate_t2m
+    from motionlab.evaluation.studies import m2d2m_values, transitions_values
 
     paper, arms, guidance, single = (evaluations[r] for r in ("multi", "multi_uniform", "guidance", "t2m"))
     table, uniform_table = (evaluate_multi(dataset, c, profile, device=device) for c in (paper, arms))
     t2m, transitions = (evaluate_t2m(dataset, c, profile, device=device) for c in (guidance, single))
-    values = {f"tps/{k}": table.estimate(row, m) for k, (row, m) in multi_claim_cells(table).items()}
-    values["tps/jerk_tps_uniform"] = uniform_table.estimate(multi_claim_cells(uniform_table)["jerk_tps"][0], "jerk")
-    dynamic = guidance.models[0]
-    values["diffusion/fid_guided"] = t2m.estimate(guidance.row(dynamic, 4.0), "fid")
-    values["diffusion/fid_unguided"] = t2m.estimate(guidance.row(dynamic, 0.0), "fid")
-    for arm, name in zip(("uniform", "dynamic"), single.models, strict=True):
-        for metric in ("fid", "top3"):
-            values[f"transitions/{metric}_{arm}"] = transitions.estimate(single.row(name), metric)
+    values = m2d2m_values(table, uniform_table, t2m, guidance) | transitions_values(transitions, single)
     tables = {"multi": table, "multi_uniform": uniform_table, "guidance": t2m, "t2m": transitions}
     return values, {role: t.to_json_dict() for role, t in tables.items()}
 
