@@ -45,14 +45,15 @@ import torch
 from motionlab import models
 from motionlab.build.stamp import machine_stamp
 from motionlab.data.embedded.generator import VERSION
-from motionlab.evaluation import (
-    evaluate_multi,
-    evaluate_reconstruction,
-    evaluate_t2m,
-    multi_claim_cells,
-    reconstruction_claim_cells,
+from motionlab.evaluation import evaluate_multi, evaluate_reconstruction, evaluate_t2m
+from motionlab.evaluation.studies import (
+    StudyPlan,
+    m2d2m_values,
+    reconstruction_values,
+    study_configs,
+    study_plan,
+    transitions_values,
 )
-from motionlab.evaluation.studies import StudyPlan, study_configs, study_plan
 from motionlab.io.common import write_text_atomic
 
 OUT = Path(__file__).resolve().parents[1] / "book" / "data" / "training_seeds" / f"embedded-v{VERSION}"
@@ -62,8 +63,7 @@ def _discord(plan: StudyPlan, dataset, profile: str) -> tuple[dict[str, float], 
     """DisCoRD's chain of the plan's seed scored with chapter 05's evaluation (no timing)."""
     config = plan.evaluations["reconstruction"]
     table = evaluate_reconstruction(dataset, config, profile)
-    cells = reconstruction_claim_cells(table, config)
-    values = {f"discord/{key}": table.estimate(row, metric).mean for key, (row, metric) in cells.items()}
+    values = {key: e.mean for key, e in reconstruction_values(table, config).items()}
     return values, [config.command_line(profile)]
 
 
@@ -74,12 +74,7 @@ def _m2d2m(plan: StudyPlan, dataset, profile: str) -> tuple[dict[str, float], li
     paper, arms, guidance = (plan.evaluations[role] for role in ("multi", "multi_uniform", "guidance"))
     table, uniform_table = evaluate_multi(dataset, paper, profile), evaluate_multi(dataset, arms, profile)
     t2m = evaluate_t2m(dataset, guidance, profile)
-    values = {f"tps/{key}": table.estimate(row, m).mean for key, (row, m) in multi_claim_cells(table).items()}
-    tps_row, _ = multi_claim_cells(uniform_table)["jerk_tps"]
-    values["tps/jerk_tps_uniform"] = uniform_table.estimate(tps_row, "jerk").mean
-    dynamic = guidance.models[0]
-    for key, scale in (("fid_guided", 4), ("fid_unguided", 0)):
-        values[f"diffusion/{key}"] = t2m.estimate(guidance.row(dynamic, scale), "fid").mean
+    values = {key: e.mean for key, e in m2d2m_values(table, uniform_table, t2m, guidance).items()}
     return values, [c.command_line(profile) for c in (paper, arms, guidance)]
 
 
@@ -88,13 +83,8 @@ def _transitions(plan: StudyPlan, dataset, profile: str) -> tuple[dict[str, floa
     single motions at s = 4, scored with chapter 08's evaluation (its sizes, the two arms alone). The book trains seed 0
     of each arm; this study's seeds give the spread its verdict adds."""
     config = plan.evaluations["t2m"]
-    uniform, dynamic = config.models
     table = evaluate_t2m(dataset, config, profile)
-    values = {
-        f"transitions/{metric}_{arm}": table.estimate(config.row(name), metric).mean
-        for arm, name in (("dynamic", dynamic), ("uniform", uniform))
-        for metric in ("fid", "top3")
-    }
+    values = {key: e.mean for key, e in transitions_values(table, config).items()}
     return values, [config.command_line(profile)]
 
 

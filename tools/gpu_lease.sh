@@ -12,11 +12,26 @@
 #     TESTS_ONLY=1 tools/gpu_lease.sh     # the tests alone (a device command may run 10 minutes: call twice)
 #     tools/gpu_lease.sh                  # both, where one command may run longer
 #     BENCH_ARGS="--smoke" BENCH_ONLY=1 tools/gpu_lease.sh   # a dry run on a CPU, in seconds
+#     SCALE_ONLY=1 tools/gpu_lease.sh     # the scale study alone: its next points, for SCALE_MINUTES (8) of training
+#     SCALE_ONLY=1 SCALE_DEVICE=cpu SCALE_ARGS="--smoke" tools/gpu_lease.sh   # its dry run on a CPU (about 2 minutes)
+#
+# The scale study continues from the records committed under book/data/scale/embedded-v<N>/ (copied to $OUT/scale
+# first); copy $OUT/scale/*.json back there and commit them after the lease.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 OUT=${OUT:-_build/gpu}
 mkdir -p "$OUT"
 export PYTHONPATH=src${PYTHONPATH:+:$PYTHONPATH}
+
+if [ -n "${SCALE_ONLY:-}" ]; then
+  version=$(python -c "from motionlab.data.embedded.generator import VERSION; print(VERSION)")
+  mkdir -p "$OUT/scale"
+  cp book/data/scale/embedded-v"$version"/*.json "$OUT/scale/" 2>/dev/null  # none yet: the run starts at 10x
+  python experiments/scale.py --device "${SCALE_DEVICE:-cuda}" --minutes "${SCALE_MINUTES:-8}" --out "$OUT/scale" \
+    ${SCALE_ARGS:-} > "$OUT/scale.txt" 2>&1
+  echo "scale exit $?" >> "$OUT/scale.txt"
+  exit 0
+fi
 
 official=()
 [ -d _official/DisCoRD ] && official+=(--official-discord _official/DisCoRD)

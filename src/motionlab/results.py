@@ -30,6 +30,7 @@ from motionlab.report.render import (
     verdicts_by_run,
 )
 from motionlab.report.rules import AtMost, Between, Claim, Evidence, Greater, Increasing, Less, Rule, Within
+from motionlab.report.scale import ScaleStudy, load_scale_study, scale_study_note, scale_verdicts
 from motionlab.report.spread import TrainingSpread, load_spread
 from motionlab.report.store import (
     CHAPTERS,
@@ -75,6 +76,7 @@ __all__ = [
     "Less",
     "Result",
     "Rule",
+    "ScaleStudy",
     "TrainingSpread",
     "Within",
     "chapter_findings",
@@ -87,12 +89,15 @@ __all__ = [
     "load_all",
     "load_budget",
     "load_eta_axis",
+    "load_scale_study",
     "load_spread",
     "quantity",
     "record",
     "record_table",
     "results_dir",
     "repeat_check",
+    "scale_study_note",
+    "scale_verdicts",
     "spread_table",
     "verdicts_by_run",
 ]

@@ -17,7 +17,8 @@ study           models (seed k > 0 adds ``-seed<k>``) and their evaluation
 ``transitions`` ``t2m/uniform`` and ``t2m/dynamic`` scored by chapter 08's table (single motions at s = 4)
 ==============  =====================================================================================================
 
-The budget study and the η axis (``experiments/m2d2m_budget.py``) are checked the same way: :func:`budget_changes`.
+The budget study and the η axis (``experiments/m2d2m_budget.py``) are checked the same way: :func:`budget_changes`;
+the scale study (``experiments/scale.py``) too, with :func:`motionlab.evaluation.scale.point_changes`.
 """
 
 from __future__ import annotations
@@ -126,6 +127,41 @@ def _model_configs(study: str, profile: str) -> dict[str, Any]:
     for name, eta in t2m.items():
         configs[name] = diffusion_training_config(profile, num_codes=tokenizer.codebook_size, eta=eta)
     return configs
+
+
+# ------------------------------------------------------------------------------------- the claim numbers of a study
+# What the claims table reads of each study's tables (as Estimates: the training-seed study keeps their means, the
+# scale study their intervals too).
+def reconstruction_values(table, config) -> dict[str, Any]:
+    """``{"discord/<key>": Estimate}``: chapter 05's claim cells of a reconstruction ``table`` (its ``config``)."""
+    from .reconstruction import claim_cells
+
+    return {f"discord/{key}": table.estimate(row, m) for key, (row, m) in claim_cells(table, config).items()}
+
+
+def m2d2m_values(multi, multi_uniform, guidance_table, guidance) -> dict[str, Any]:
+    """M2D2M's claim numbers of the ``m2d2m`` study's three tables: chapter 09's multi-motion cells (``tps/...``),
+    TPS of the uniform model (``tps/jerk_tps_uniform``), and chapter 07's guidance rows of the dynamic model
+    (``diffusion/fid_guided`` at s = 4, ``diffusion/fid_unguided`` at s = 0; ``guidance``: that table's config)."""
+    from .multi import claim_cells
+
+    values = {f"tps/{key}": multi.estimate(row, m) for key, (row, m) in claim_cells(multi).items()}
+    values["tps/jerk_tps_uniform"] = multi_uniform.estimate(claim_cells(multi_uniform)["jerk_tps"][0], "jerk")
+    dynamic = guidance.models[0]
+    for key, scale in (("fid_guided", 4.0), ("fid_unguided", 0.0)):
+        values[f"diffusion/{key}"] = guidance_table.estimate(guidance.row(dynamic, scale), "fid")
+    return values
+
+
+def transitions_values(table, config) -> dict[str, Any]:
+    """Chapter 08's comparison in a ``transitions`` table (``config.models``: the uniform arm, then the dynamic one):
+    ``transitions/{fid,top3}_{dynamic,uniform}``."""
+    uniform, dynamic = config.models
+    return {
+        f"transitions/{metric}_{arm}": table.estimate(config.row(name), metric)
+        for arm, name in (("dynamic", dynamic), ("uniform", uniform))
+        for metric in ("fid", "top3")
+    }
 
 
 def config_changes(recorded: dict[str, Any], current: dict[str, Any], prefix: str = "") -> list[str]:

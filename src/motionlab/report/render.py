@@ -16,6 +16,7 @@ from .budget import BudgetStudy, load_budget, scale_statement
 from .claims import CLAIMS, FINDINGS
 from .quantities import quantity
 from .rules import Claim, Within, training_difference
+from .scale import ScaleStudy, load_scale_study, study_scale
 from .spread import TrainingSpread, load_spread
 from .store import CHAPTERS, FAILS, HOLDS, INCONCLUSIVE, MISSING, VERDICTS, Result, load_all
 
@@ -35,7 +36,9 @@ class ClaimRow:
     verdict: str
     missing: tuple[str, ...] = ()
     mechanism: str = ""  # one line per Evidence, from the recorded numbers ("" when the claim has none)
-    scale: str = ""  # the claim judged at other training budgets (report.budget; "" where none was measured)
+    # the claim judged at other training budgets (report.budget) and multiples of the laptop's training samples
+    # (report.scale), one line each; "" where neither was measured
+    scale: str = ""
 
 
 VERDICT_COLOURS = {HOLDS: "#1a7f37", FAILS: "#cf222e", INCONCLUSIVE: "#9a6700", MISSING: "#57606a"}
@@ -132,9 +135,10 @@ class ClaimsTable:
                     f"{lines}</small></td></tr>"
                 )
             if row.scale:
+                lines = "<br>".join(esc(line) for line in row.scale.split("\n") if line)
                 out.append(
                     f'<tr class="ml-scale"><td></td><td colspan="3"><small><b>At other scales:</b> '
-                    f"{esc(row.scale)}</small></td></tr>"
+                    f"{lines}</small></td></tr>"
                 )
         out.append("</tbody></table></div>")
         return "\n".join(out)
@@ -144,17 +148,17 @@ class ClaimsTable:
         out += ["| Paper | Where | Claim | Paper | Ours | Verdict | Measured mechanism | Measured scale |"]
         out += ["|---" * 8 + "|"]
         for r in self.rows:
-            mechanism = r.mechanism.replace("\n", "; ")
-            cells = (r.paper, r.source, r.statement, r.paper_value, r.ours, r.verdict, mechanism, r.scale)
+            mechanism, scale = r.mechanism.replace("\n", "; "), r.scale.replace("\n", "; ")
+            cells = (r.paper, r.source, r.statement, r.paper_value, r.ours, r.verdict, mechanism, scale)
             out.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
         return "\n".join(out)
 
 
-RECORDED = "recorded"  # the default of spread= and budget=: the study recorded for the profile, if any
+RECORDED = "recorded"  # the default of spread=, budget= and scale=: the study recorded for the profile, if any
 
 
 def _study(value, kind: type, load, profile: str, name: str):
-    """``spread=`` or ``budget=`` resolved: the study recorded for ``profile``, None, or the one given."""
+    """``spread=``, ``budget=`` or ``scale=`` resolved: the study recorded for ``profile``, None, or the one given."""
     if value == RECORDED:
         return load(profile)
     if value is not None and not isinstance(value, kind):
@@ -279,15 +283,19 @@ def judge(
     recorded: Mapping[str, Result],
     spread: TrainingSpread | None = None,
     budget: BudgetStudy | None = None,
+    scale: ScaleStudy | None = None,
 ) -> ClaimRow:
     """One row: the claim, our numbers for its keys (a phrase with units and intervals), and the verdict.
 
     ``spread``: the training-seed study's (:mod:`motionlab.report.spread`); where it measured a comparison's keys,
     its between-run spread joins the verdict's interval and the phrase says how large it is. ``budget``: the budget
     study's (:mod:`motionlab.report.budget`); where it measured the claim's keys, the row says how the claim fares at
-    each training budget.
+    each training budget. ``scale``: the scale study's (:mod:`motionlab.report.scale`), likewise at each multiple of
+    the laptop's training samples.
     """
-    scale = scale_statement(claim, budget) if budget is not None else None
+    by_budget = scale_statement(claim, budget) if budget is not None else None
+    by_samples = study_scale(claim, scale) if scale is not None else None
+    scale_lines = [s.sentence() for s in (by_budget, by_samples) if s is not None]
     missing = tuple(k for k in claim.keys if k not in recorded)
     verdict = MISSING if missing else claim.rule.judge(recorded, spread)
     mechanism = "\n".join(e.format(recorded) for e in claim.mechanism)
@@ -303,7 +311,7 @@ def judge(
         verdict,
         missing,
         mechanism,
-        scale.sentence() if scale is not None else "",
+        "\n".join(scale_lines),
     )
 
 
@@ -313,17 +321,20 @@ def claims_table(
     claims: Sequence[Claim] = CLAIMS,
     spread: TrainingSpread | str | None = RECORDED,
     budget: BudgetStudy | str | None = RECORDED,
+    scale: ScaleStudy | str | None = RECORDED,
 ) -> ClaimsTable:
     """Judge every claim on the results recorded for ``profile`` (or on ``recorded`` if given), with the training-seed
     spread recorded for the profile (``spread=None``: on the measurements' intervals alone), and with each claim's
-    verdicts at the budget study's training budgets where it was recorded (``budget=None``: without)."""
+    verdicts at the budget study's training budgets where it was recorded (``budget=None``: without) and at the scale
+    study's multiples of the laptop's training samples (``scale=None``: without)."""
     profile = get_profile(profile)
     recorded = load_all(profile) if recorded is None else recorded
     spread, budget = (
         _study(spread, TrainingSpread, load_spread, profile, "spread"),
         _study(budget, BudgetStudy, load_budget, profile, "budget"),
     )
-    return ClaimsTable([judge(c, recorded, spread, budget) for c in claims], profile)
+    scale = _study(scale, ScaleStudy, load_scale_study, profile, "scale")
+    return ClaimsTable([judge(c, recorded, spread, budget, scale) for c in claims], profile)
 
 
 @dataclass(frozen=True)

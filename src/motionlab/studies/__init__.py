@@ -17,9 +17,11 @@ module                      study
 ``transitions``             chapter 09: the transition Jerk at each boundary of one example
 ``precision_parity``        "bf16 against fp32": the recorded parity runs
 ``retraining``              "Retraining and the verdicts": each training run's difference against the mean
+``scale``                   chapter 99: the scale study's points trained, scored and planned (``experiments/scale.py``)
 ==========================  ==========================================================================================
 
 The training-seed, budget and η studies feed the claims table's verdicts, so they are read by
 :mod:`motionlab.report` (``spread``, ``budget``), and what each of them trains and scores is defined by
-:mod:`motionlab.evaluation.studies`, below it.
+:mod:`motionlab.evaluation.studies`, below it; the scale study's points likewise by :mod:`motionlab.evaluation.scale`
+(read by :mod:`motionlab.report.scale`).
 """

@@ -164,6 +164,13 @@ def projection_ablation(
     )
 
 
+def projection_claim_cells(labels: Mapping[str, str]) -> dict[str, tuple[str, str]]:
+    """Which cells of the ablation table the claims read: ``{"heldout_mse_repeat_linear": ("repeat", "heldout_mse"),
+    ...}``, one per decoder row and metric, named ``<metric>_<label>`` with ``labels`` mapping a row to its claim name
+    (``{"stacked": "stacked", "repeat": "repeat_linear", "transposed": "transposed"}``, chapter 04's)."""
+    return {f"{metric}_{label}": (row, metric) for row, label in labels.items() for metric in ABLATION_METRICS}
+
+
 def paired_differences(
     table: EvaluationTable, row: str, others: Sequence[str], metrics: Sequence[str] | None = None
 ) -> EvaluationTable:
@@ -199,5 +206,6 @@ __all__ = [
     "held_out_clips",
     "paired_differences",
     "projection_ablation",
+    "projection_claim_cells",
     "window_losses",
 ]

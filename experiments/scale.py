@@ -1,0 +1,256 @@
+"""At what scale does each claim hold? Train the models the claims rest on at multiples of the laptop budget, run by
+run on a GPU, and score every point with the chapters' own evaluations (issue 47).
+
+A point is one model group at one multiple of the laptop's training samples, at the laptop's widths
+(:mod:`motionlab.evaluation.scale`): ``discord`` (the RVQ tokenizer and chapter 05's DisCoRD decoder), ``projection``
+(the RVQ tokenizer and chapter 04's three projection decoders) and ``m2d2m`` (the VQ tokenizer and the uniform,
+dynamic and multi-motion text-to-motion models). Every point is scored with one evaluator, the laptop's. The work is
+ordered so that each run adds the most: every group at 10×, then every group at 30×, then 100×, 300×, ...
+
+A GPU run (a lease of about 15 minutes, the machine's start included, at most 10 minutes a command) from the
+repository root, with the records so far copied into ``$OUT/scale`` first (``SCALE_ONLY=1 tools/gpu_lease.sh`` does
+both)::
+
+    PYTHONPATH=src python experiments/scale.py --device cuda --minutes 8 --out $OUT/scale
+
+then copy ``$OUT/scale/*.json`` into ``book/data/scale/embedded-v<N>/`` and commit them; the next run (with those
+records in place under ``--out``) continues with the first point not yet recorded. Leave the command's own limit a
+point's length above ``--minutes``: the time is checked between points, and scoring is not predicted.
+
+``--plan`` prints the plan and exits; every run prints it first, with each point's predicted time: each model's
+steps × its step time as an earlier point in ``--out`` measured it on this kind of device at this batch, else as the
+GPU benchmark measured the library's training step (``book/data/gpu/*.json``, at the papers' widths and batch, so an
+upper bound for the laptop's narrower networks), else "not predicted" (the benchmark did not time the VQ tokenizer);
+plus the group's scoring time where an earlier point measured it (the evaluations do not grow with the multiple).
+The first GPU run thus predicts from the benchmark and every later one from the points before it.
+
+Run by run: a point is the unit of work. A finished point is written at once (atomically) and never redone; a run
+with ``--minutes N`` always does its first pending point, then starts another only while the time left covers the
+point's prediction (or, unpredicted, while any is left), and stops cleanly between points, printing what is left.
+The trained models live in the model cache on the leased machine and do not come back with the outputs: a point cut
+off mid-way (the lease ending) is retrained from the start by the next run, at the cost of its predicted time again.
+
+Each point's record, ``<out>/<group>-x<multiple>.json``, holds the device (the GPU's name, or the CPU's), the
+precision, the torch version, the commit, the data, the batch factor, every model's steps × batch and time, the
+resolved configs of its models and evaluations (``"configs"``: a record whose configs are no longer the code's is
+set aside when the book reads the folder, :func:`motionlab.report.scale.read_scale_records`, and measured again
+here), the claim numbers (``"values"``) and the evaluation tables. ``--smoke`` runs the whole pipeline at the smoke
+profile with tiny multiples on the CPU in about a minute, into ``$MOTIONLAB_HOME/scale-smoke`` unless ``--out``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import torch
+
+from motionlab.build.stamp import machine_stamp
+from motionlab.data.embedded.generator import VERSION
+from motionlab.evaluation.scale import GROUPS, MULTIPLES, point_changes, scaled_budgets
+from motionlab.io.common import write_text_atomic
+from motionlab.studies.scale import (
+    Point,
+    Rates,
+    auto_batch_factor,
+    estimate_json,
+    measured_rates,
+    plan_lines,
+    plan_point,
+    point_seconds,
+    predicted_seconds,
+    score_point,
+    train_point,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "book" / "data" / "scale" / f"embedded-v{VERSION}"
+GPU_RECORDS = ROOT / "book" / "data" / "gpu"
+SMOKE_MULTIPLES = (0.5, 1.0)  # of the smoke profile's seconds-long budgets: proves the pipeline, measures nothing
+
+
+def _log(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)
+
+
+def _device_name(device: str) -> str:
+    """What the record calls the machine: the GPU's name on CUDA, else the CPU's."""
+    if device.startswith("cuda"):
+        return torch.cuda.get_device_name(torch.device(device))
+    return machine_stamp()["cpu"]
+
+
+def _precision(device: str) -> str:
+    """The precision the points train in on ``device``; planning a GPU run elsewhere, what ``auto`` resolves to on a
+    bf16 GPU such as the benchmark's (an explicit ``$MOTIONLAB_PRECISION`` is kept)."""
+    from motionlab.precision import requested_precision, resolve_precision
+
+    if device.startswith("cuda") and not torch.cuda.is_available():
+        requested = requested_precision(None)
+        return "bf16" if requested == "auto" else requested
+    return resolve_precision(None, device)
+
+
+def _gpu_run(path: Path | None):
+    """The GPU benchmark run whose step times predict the plan: ``path``, else the newest under book/data/gpu."""
+    from motionlab.report.gpu import load_gpu_runs, read_gpu_run
+
+    if path is not None:
+        return read_gpu_run(path)
+    runs = load_gpu_runs(GPU_RECORDS)
+    return runs[-1] if runs else None
+
+
+def _recorded(out: Path, profile: str) -> dict[str, dict]:
+    """The points recorded in ``out`` as the code would measure them now, by key (a stale one is measured again)."""
+    records = {}
+    for path in sorted(out.glob("*.json")) if out.is_dir() else ():
+        record = json.loads(path.read_text())
+        if record.get("study") != "scale" or record.get("profile") != profile:
+            continue
+        changes = point_changes(record, profile)
+        if changes:
+            _log(f"{path.name}: recorded with other configs ({', '.join(changes[:3])}): measuring it again")
+        elif changes is None:
+            _log(f"{path.name}: recorded without its configs: measuring it again")
+        else:
+            records[path.stem] = record
+    return records
+
+
+def run_point(point: Point, profile: str, device: str, rates: Rates) -> dict:
+    """Train and score one point: its record."""
+    from motionlab import models
+
+    planned = {m.name: m for m in plan_point(point, profile, rates)}
+    dataset = models.load("data", None, profile)
+    start = time.perf_counter()
+    training = train_point(point, dataset, profile, device)
+    scoring_start = time.perf_counter()
+    values, tables = score_point(point, dataset, profile, device)
+    stamp = machine_stamp()
+    return {
+        "study": "scale",
+        "group": point.group,
+        "multiple": point.multiple,
+        "batch_factor": point.batch_factor,
+        "profile": profile,
+        **stamp,
+        "device": _device_name(device),
+        "device_type": device.split(":")[0],
+        "precision": rates.precision,
+        "torch": torch.__version__,
+        "data": dataset.key,
+        "models": {n: {"steps": m.steps, "batch": m.batch, **training[n]} for n, m in planned.items()},
+        "seconds": {
+            "training": round(scoring_start - start, 1),
+            "scoring": round(time.perf_counter() - scoring_start, 1),
+            "predicted_training": predicted_seconds(list(planned.values())),
+        },
+        "configs": _configs(point, profile),
+        "values": {key: estimate_json(e) for key, e in values.items()},
+        "tables": tables,
+    }
+
+
+def _configs(point: Point, profile: str) -> dict:
+    from motionlab.evaluation.scale import point_configs
+
+    return point_configs(point.group, point.multiple, point.batch_factor, profile)
+
+
+def _parse(argv: list[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--multiples", type=float, nargs="+", help=f"of the laptop budget (default: {MULTIPLES})")
+    parser.add_argument("--groups", nargs="+", choices=GROUPS, default=list(GROUPS), help="model groups (default: all)")
+    parser.add_argument("--profile", default="laptop", help="whose budget and widths (default: laptop)")
+    parser.add_argument("--device", default="auto", help="cpu, cuda, cuda:N or auto (default: cuda when available)")
+    parser.add_argument("--minutes", type=float, help="stop between points once this much time is spent")
+    parser.add_argument("--batch-factor", type=int, help="batch × this (a power of two; default: chosen per point)")
+    parser.add_argument("--gpu-record", type=Path, help="the GPU benchmark run to predict from (default: newest)")
+    parser.add_argument("--plan", action="store_true", help="print the plan with predicted times and exit")
+    parser.add_argument("--smoke", action="store_true", help="smoke profile, tiny multiples, CPU: the pipeline only")
+    parser.add_argument("--out", type=Path, help="where the records go (default: book/data/scale/embedded-v<N>)")
+    args = parser.parse_args(argv)
+    if args.smoke:
+        args.profile, args.multiples = "smoke", args.multiples or list(SMOKE_MULTIPLES)
+        args.device = "cpu" if args.device == "auto" else args.device
+        if args.out is None:
+            from motionlab.paths import cache_dir
+
+            args.out = cache_dir() / "scale-smoke"  # never the book's folder: smoke numbers are not results
+    args.multiples = args.multiples or list(MULTIPLES)
+    args.out = args.out or OUT
+    if any(m <= 0 for m in args.multiples):
+        parser.error("--multiples must be > 0")
+    if args.minutes is not None and args.minutes <= 0:
+        parser.error("--minutes must be > 0")
+    if args.batch_factor is not None and (args.batch_factor < 1 or args.batch_factor & (args.batch_factor - 1)):
+        parser.error("--batch-factor must be a power of two >= 1")
+    if args.device == "auto":
+        args.device = "cuda" if torch.cuda.is_available() else "cpu"
+    if args.device.startswith("cuda") and not torch.cuda.is_available() and not args.plan:  # a plan trains nothing
+        parser.error(f"--device {args.device}: torch sees no CUDA device here")
+    if not (args.device == "cpu" or args.device.startswith("cuda")):
+        parser.error(f"--device must be cpu, cuda, cuda:N or auto, got {args.device!r}")
+    if args.gpu_record is not None and not args.gpu_record.is_file():
+        parser.error(f"--gpu-record {args.gpu_record}: no such file")
+    try:  # a profile without budgets of its own (full: the papers') has nothing to multiply
+        with scaled_budgets(1, 1, args.profile):
+            pass
+    except ValueError as err:
+        parser.error(f"--profile {args.profile}: {err}")
+    return args
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parse(argv)
+    torch.set_num_threads(1 if args.device == "cpu" else torch.get_num_threads())  # a shared CPU: one thread
+    # the GPU benchmark predicts a GPU run only: a CPU's steps are predicted by the points it measured itself
+    run = _gpu_run(args.gpu_record) if args.device.startswith("cuda") else None
+    precision, device_type = _precision(args.device), args.device.split(":")[0]
+    points = []
+    for multiple in sorted(args.multiples):  # every group at a multiple before the next multiple
+        for group in args.groups:
+            factor = args.batch_factor or auto_batch_factor(multiple, group, args.profile, args.device, run)
+            points.append(Point(group, multiple, factor))
+    records = _recorded(args.out, args.profile)
+    done = {p.key for p in points if p.key in records}
+    rates = measured_rates(list(records.values()), device_type, precision, run)
+    print("\n".join(plan_lines(points, args.profile, rates, done, args.minutes)), flush=True)
+    if args.plan:
+        return 0
+    args.out.mkdir(parents=True, exist_ok=True)
+    deadline = None if args.minutes is None else time.monotonic() + 60 * args.minutes
+    finished = 0
+    for point in points:
+        if point.key in done:
+            _log(f"{point.key}: recorded already")
+            continue
+        if deadline is not None and finished and _no_time(deadline, point_seconds(point, args.profile, rates)):
+            left = [p.key for p in points if p.key not in done]
+            print(f"stopping: {len(left)} point(s) left ({', '.join(left)}); run again to continue", flush=True)
+            return 0
+        record = run_point(point, args.profile, args.device, rates)
+        write_text_atomic(args.out / f"{point.key}.json", json.dumps(record, indent=1) + "\n")
+        records[point.key] = record
+        rates = measured_rates(list(records.values()), device_type, precision, run)  # the next points' predictions
+        done.add(point.key)
+        finished += 1
+        seconds = record["seconds"]
+        print(f"{point.key}: recorded ({seconds['training']:.0f} s training, {seconds['scoring']:.0f} s scoring)")
+    print(f"all {len(points)} point(s) recorded in {args.out}", flush=True)
+    return 0
+
+
+def _no_time(deadline: float, predicted: float | None) -> bool:
+    """Whether the next point should wait for the next run: past the deadline, or predicted not to fit before it."""
+    left = deadline - time.monotonic()
+    return left <= 0 or (predicted is not None and predicted > left)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

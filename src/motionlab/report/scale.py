@@ -1,0 +1,244 @@
+"""At what scale does each claim hold? The scale study's records, judged by the claims' own rules.
+
+``experiments/scale.py`` trains the models the claims rest on at multiples of the laptop budget (counted in training
+samples, at the laptop's widths) and scores each point with the chapters' evaluations, one record per model group
+and multiple (``book/data/scale/embedded-v<N>/<group>-x<multiple>.json``, :mod:`motionlab.evaluation.scale`).
+:func:`load_scale_study` reads them, setting aside a record whose configs are no longer the code's;
+:func:`study_scale` judges a claim at every recorded multiple with the rule and intervals the claims table uses (the
+evaluation's own intervals; no training-seed spread, which was measured at the laptop's budget), which gives the
+"Measured scale" column its second line beside the budget study's (:func:`motionlab.report.budget.scale_statement`):
+the smallest multiple from which the claim holds, with the device and precision it was trained in, or the largest
+multiple tried and what the numbers do there.
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from motionlab.estimate import format_estimate
+
+from .budget import MODEL_FREE
+from .rules import Greater, Less
+from .store import HOLDS, Result
+
+FOLDER = ("book", "data", "scale")
+GPU_COMMAND = "PYTHONPATH=src python experiments/scale.py --device cuda --minutes 8 --out $OUT/scale"
+
+
+def multiple_text(multiple: float) -> str:
+    """``10×``, ``0.5×``: a multiple of the laptop budget as the table prints it."""
+    return f"{multiple:g}×"
+
+
+@dataclass(frozen=True)
+class ScaleStudy:
+    """The scale study's records: ``records[(group, multiple)]`` is one file's JSON."""
+
+    profile: str
+    records: dict[tuple[str, float], dict]
+    set_aside: tuple[str, ...] = ()  # files measured with other configs than the code's (:func:`read_scale_records`)
+    _results: dict = field(default_factory=dict, compare=False, repr=False)  # results per multiple, built once
+
+    @property
+    def multiples(self) -> list[float]:
+        """The multiples at which at least one group was recorded (sorted)."""
+        return sorted({m for _, m in self.records})
+
+    def results(self, multiple: float) -> dict[str, Result]:
+        """Every claim number recorded at ``multiple`` (all its groups), as results the rules read."""
+        if multiple not in self._results:
+            out = {}
+            for (_, m), record in self.records.items():
+                if m == multiple:
+                    out |= _record_results(record, self.profile)
+            self._results[multiple] = out
+        return self._results[multiple]
+
+    def where(self, multiple: float, keys=None) -> str:
+        """Where the models of ``multiple`` were trained: ``NVIDIA H200, bf16`` (several joined by ``/``), from the
+        records holding any of ``keys`` (default: all of that multiple)."""
+        found = sorted(
+            {
+                f"{r.get('device', r.get('cpu', '?'))}, {r.get('precision', '?')}"
+                for (_, m), r in self.records.items()
+                if m == multiple and (keys is None or any(k in r.get("values", {}) for k in keys))
+            }
+        )
+        return " / ".join(found)
+
+
+def _record_results(record: dict, profile: str) -> dict[str, Result]:
+    note = f"scale study, {multiple_text(record['multiple'])} the laptop's training samples ({record['group']})"
+    out = {}
+    for name, value in record["values"].items():
+        chapter, key = name.split("/", 1)
+        half = float(value.get("half_width", 0.0))
+        ci = (value["mean"] - half, value["mean"] + half) if half > 0 else None
+        precision = record.get("precision")
+        out[name] = Result(chapter, key, value["mean"], ci, value.get("unit"), note, profile, precision=precision)
+    return out
+
+
+def load_scale_study(profile: str, folder: str | Path | None = None) -> ScaleStudy | None:
+    """The scale study recorded for ``profile`` (None where none was): the repository's
+    ``book/data/scale/embedded-v<N>`` of the current embedded data unless ``folder`` is given."""
+    if folder is None:
+        from motionlab.data.embedded.generator import VERSION
+
+        from .spread import find_folder
+
+        root = find_folder(FOLDER)
+        if root is None:
+            return None
+        folder = root / f"embedded-v{VERSION}"
+    folder = Path(folder)
+    if not folder.is_dir():
+        return None
+    found, set_aside = read_scale_records(folder, profile)
+    records = {(r["group"], float(r["multiple"])): r for r in found}
+    if not records and not set_aside:
+        return None
+    return ScaleStudy(profile, records, tuple(set_aside))
+
+
+def read_scale_records(folder: Path, profile: str) -> tuple[list[dict], list[str]]:
+    """The scale-study files of ``profile`` in ``folder`` measured with the models and evaluations the code builds
+    now, and one line per file set aside because they are not (:func:`motionlab.evaluation.scale.point_changes`)."""
+    from motionlab.evaluation.scale import point_changes
+    from motionlab.evaluation.studies import changes_phrase
+
+    records, set_aside = [], []
+    for path in sorted(folder.glob("*.json")):
+        record = json.loads(path.read_text())
+        if record.get("study") != "scale" or record.get("profile") != profile:
+            continue
+        changes = point_changes(record, profile)
+        if changes is None:
+            set_aside.append(f"{path.name} (commit {record.get('commit', '?')}): recorded without its configs")
+        elif changes:
+            set_aside.append(f"{path.name} (commit {record.get('commit', '?')}): {changes_phrase(changes)}")
+        else:
+            records.append(record)
+    if set_aside and not records:  # said once: every file measured other models
+        warnings.warn(f"every scale-study file in {folder} was set aside:\n" + "\n".join(set_aside), stacklevel=3)
+    return records, set_aside
+
+
+@dataclass(frozen=True)
+class StudyScale:
+    """A claim judged at each multiple of the scale study, and the sentence the claims table prints."""
+
+    verdicts: dict[float, str]
+    where: dict[float, str]  # device and precision per multiple
+    largest: str  # our numbers at the largest multiple, as the claims table phrases them
+    trend: str = ""  # what the compared difference does over the multiples ("" where the rule has no single pair)
+
+    def sentence(self) -> str:
+        multiples = sorted(self.verdicts)
+        machines = set(self.where.values())
+        one = machines.pop() if len(machines) == 1 else None  # then said once, not at every multiple
+        tried = "; ".join(
+            f"{multiple_text(m)}{'' if one else f' ({self.where[m]})'}: {self.verdicts[m]}" for m in multiples
+        )
+        holding = [m for m in multiples if self.verdicts[m] == HOLDS]
+        if holding and all(self.verdicts[m] == HOLDS for m in multiples if m >= holding[0]):
+            first = holding[0]
+            reading = f"holds from {multiple_text(first)} the laptop's training samples ({self.where[first]})"
+        else:
+            last = multiples[-1]
+            reading = f"the largest multiple tried, {multiple_text(last)}: {self.largest}"
+            reading += f"; {self.trend}" if self.trend else ""
+        where = f", {one}" if one else ""
+        return f"By training samples (scale study, laptop widths{where}): {tried} — {reading}"
+
+
+def study_scale(claim, study: ScaleStudy) -> StudyScale | None:
+    """``claim`` judged by its own rule at every multiple of ``study`` that recorded all its keys (None where none
+    did, or where the claim reads real motions only)."""
+    if set(claim.keys) <= MODEL_FREE:
+        return None
+    verdicts, where, per_multiple = {}, {}, {}
+    for multiple in study.multiples:
+        recorded = study.results(multiple)
+        if any(k not in recorded for k in claim.keys):
+            continue
+        verdicts[multiple] = claim.rule.judge(recorded)
+        where[multiple] = study.where(multiple, claim.keys)
+        per_multiple[multiple] = recorded
+    if not verdicts:
+        return None
+    largest = claim.rule.sentence(per_multiple[max(verdicts)])
+    return StudyScale(verdicts, where, largest, gap_trend(claim.rule, per_multiple))
+
+
+def gap_trend(rule, per_multiple: Mapping[float, Mapping[str, Result]]) -> str:
+    """For a rule comparing one pair (``a < b`` or ``a > b``): ``a − b`` at each multiple and whether it moves toward
+    the claim's side; "" for other rules or a single multiple."""
+    if not isinstance(rule, Less) or len(per_multiple) < 2:
+        return ""
+    multiples = sorted(per_multiple)
+    gaps = [per_multiple[m][rule.a].value - per_multiple[m][rule.b].value for m in multiples]
+    unit = per_multiple[multiples[-1]][rule.a].unit
+    wanted = 1 if isinstance(rule, Greater) else -1  # the sign the claim expects of a − b
+    moving = (gaps[-1] - gaps[-2]) * wanted
+    direction = "toward the claim" if moving > 0 else "away from it" if moving < 0 else "flat"
+    path = " → ".join(format_estimate(g, unit=unit) for g in gaps)
+    span = f"{multiple_text(multiples[0])} to {multiple_text(multiples[-1])}"
+    return f"a − b went {path} from {span}, last step {direction}"
+
+
+def scale_study_note(study: ScaleStudy | None) -> str:
+    """One sentence for the book: what the scale study has measured, or that it has not yet been run on a GPU."""
+    if study is None or not study.records:
+        aside = f" ({len(study.set_aside)} record(s) set aside)" if study is not None and study.set_aside else ""
+        return f"Scale study: not yet measured on a GPU{aside}; a GPU run needs `{GPU_COMMAND}`."
+    gpu = any(r.get("device_type") == "cuda" for r in study.records.values())
+    points = ", ".join(f"{multiple_text(m)} ({study.where(m)})" for m in study.multiples)
+    groups = sorted({g for g, _ in study.records})
+    text = f"Scale study: {len(study.records)} point(s) of {', '.join(groups)} at {points}"
+    if not gpu:
+        text += "; not yet measured on a GPU"
+    if study.set_aside:
+        text += f"; {len(study.set_aside)} record(s) set aside"
+    return text + "."
+
+
+def scale_verdicts(rows, study: ScaleStudy, claims=None):
+    """Every claim's verdict at each recorded multiple next to this build's (``rows``: a claims table's rows, in the
+    order of ``claims``, default :data:`~motionlab.report.claims.CLAIMS`), as a :class:`~motionlab.viz.tables.Table`;
+    "–" where a multiple did not measure the claim's keys."""
+    from motionlab.viz.tables import Table
+
+    from .claims import CLAIMS
+
+    claims = CLAIMS if claims is None else claims
+    if not study.records:
+        raise ValueError("the scale study recorded no point: nothing to set beside this build's verdicts")
+    columns = ("this build", *(multiple_text(m) for m in study.multiples))
+    table = {}
+    for claim, row in zip(claims, rows, strict=True):
+        judged = study_scale(claim, study)
+        verdicts = judged.verdicts if judged is not None else {}
+        cells = {"this build": row.verdict}
+        cells |= {multiple_text(m): verdicts.get(m) for m in study.multiples}
+        table[f"{claim.paper}: {claim.statement}"] = cells
+    notes = [f"{multiple_text(m)}: {study.where(m)}" for m in study.multiples]
+    return Table("claim", table, columns, notes=("trained on: " + "; ".join(notes),))
+
+
+__all__ = [
+    "GPU_COMMAND",
+    "ScaleStudy",
+    "StudyScale",
+    "load_scale_study",
+    "multiple_text",
+    "read_scale_records",
+    "scale_study_note",
+    "scale_verdicts",
+    "study_scale",
+    "gap_trend",
+]

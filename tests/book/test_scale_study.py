@@ -1,0 +1,225 @@
+"""The scale study (issue 47): a multiple of the laptop budget changes only the training budgets; the experiment runs
+end to end at the smoke profile, stops between points and continues; its records read back into the claims table,
+and a record of other configs is set aside."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from motionlab import sizes
+from motionlab.evaluation.scale import check_point, point_changes, point_configs, scaled_budgets, training_steps
+from motionlab.report.gpu import load_gpu_runs
+from motionlab.report.render import claims_table
+from motionlab.report.scale import load_scale_study, scale_study_note, scale_verdicts, study_scale
+from motionlab.results import CLAIMS
+from motionlab.studies.scale import Point, Rates, auto_batch_factor, measured_rates, plan_point, point_seconds
+
+REPO = Path(__file__).resolve().parents[2]
+SCRIPT = REPO / "experiments" / "scale.py"
+
+
+def _script():
+    """experiments/scale.py as a module (for its argument checks, without a subprocess)."""
+    spec = importlib.util.spec_from_file_location("scale_experiment", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _run(*args: str, home: Path, **variables: str) -> subprocess.CompletedProcess:
+    env = {**os.environ, "MOTIONLAB_HOME": str(home), "PYTHONPATH": str(REPO / "src"), **variables}
+    env.pop("MOTIONLAB_PROFILE", None)
+    command = [sys.executable, str(SCRIPT), *args]
+    done = subprocess.run(command, env=env, capture_output=True, text=True, timeout=900, cwd=REPO)
+    assert done.returncode == 0, done.stderr[-3000:]
+    return done
+
+
+# ----------------------------------------------------------------------------------------- the multiples alone
+def test_a_multiple_scales_steps_batch_and_warmup_and_nothing_else():
+    before = {name: dict(getattr(sizes, name)["laptop"]) for name in ("TOKENIZER", "DENOISER", "EVALUATOR")}
+    laptop = point_configs("discord", 1, 1, "laptop")["models"]
+    scaled = point_configs("discord", 10, 8, "laptop")["models"]
+    for name in ("tokenizer/rvq", "discord/rvq"):
+        (steps, batch), (steps10, batch10) = training_steps(laptop[name]), training_steps(scaled[name])
+        assert batch10 == 8 * batch and steps10 * batch10 == pytest.approx(10 * steps * batch, rel=1e-3)
+    assert scaled["discord/rvq"]["warmup_steps"] == round(laptop["discord/rvq"]["warmup_steps"] / 8)  # same samples
+    assert scaled["discord/rvq"]["width"] == laptop["discord/rvq"]["width"]  # the laptop's widths
+    assert scaled["evaluator"] == laptop["evaluator"]  # one evaluator for every point
+    t2m = point_configs("m2d2m", 30, 1, "laptop")["models"]["t2m/dynamic"]
+    assert t2m["transformer"]["train_steps"] == 30 * 800 and t2m["warmup_steps"] == 100
+    assert {name: dict(getattr(sizes, name)["laptop"]) for name in before} == before  # restored after the block
+    assert sizes.DISCORD_VQ["laptop"] is sizes.DISCORD_ABLATION["laptop"]  # shared entries stay shared
+
+
+def test_bad_points_are_refused():
+    with pytest.raises(ValueError, match="power of two"):
+        check_point(10, 3)
+    with pytest.raises(ValueError, match="> 0"):
+        check_point(0, 1)
+    with pytest.raises(ValueError, match="sets none"), scaled_budgets(10, 1, "full"):
+        pass
+    with pytest.raises(ValueError, match="group must be one of"):
+        point_configs("vq", 10)
+
+
+def test_the_batch_grows_on_a_gpu_up_to_the_benchmarked_batch():
+    (run,) = load_gpu_runs(REPO / "book" / "data" / "gpu")[-1:]
+    assert auto_batch_factor(10, "discord", "laptop", "cpu", run) == 1
+    assert auto_batch_factor(10, "discord", "laptop", "cuda", run) == 8  # the RVQ step was timed at 256 = 8 × 32
+    assert auto_batch_factor(10, "m2d2m", "laptop", "cuda", run) == 2  # the text-to-motion step at 64 = 2 × 32
+    assert auto_batch_factor(1, "m2d2m", "laptop", "cuda", run) == 1  # never fewer steps than the laptop's
+    planned = {m.name: m for m in plan_point(Point("m2d2m", 10, 2), "laptop", Rates("bf16", run))}
+    assert planned["t2m/dynamic"].steps == 4000 and planned["t2m/dynamic"].seconds == pytest.approx(4000 * 0.0982)
+    assert planned["tokenizer/vq"].seconds is None and "no bf16 rate for it" in planned["tokenizer/vq"].why
+
+
+def test_a_point_measured_here_predicts_the_next_better_than_the_benchmark():
+    (run,) = load_gpu_runs(REPO / "book" / "data" / "gpu")[-1:]
+    measured = {
+        "group": "m2d2m",
+        "multiple": 10.0,
+        "device_type": "cuda",
+        "precision": "bf16",
+        "models": {
+            "tokenizer/vq": {"steps": 10000, "batch": 64, "seconds": 50.0, "trained": True},
+            "t2m/dynamic": {"steps": 4000, "batch": 64, "seconds": 1.0, "trained": False},  # loaded: times nothing
+        },
+        "seconds": {"scoring": 90.0},
+    }
+    rates = measured_rates([measured], "cuda", "bf16", run)
+    assert measured_rates([measured], "cuda", "fp32", run).steps == {}  # another precision is another machine
+    planned = {m.name: m for m in plan_point(Point("m2d2m", 30, 2), "laptop", rates)}
+    tokenizer = planned["tokenizer/vq"]
+    assert tokenizer.seconds == pytest.approx(30000 * 0.005) and "measured in m2d2m-x10" in tokenizer.why
+    assert planned["t2m/dynamic"].seconds == pytest.approx(12000 * 0.0982)  # still the benchmark's bound
+    expected = sum(m.seconds for m in planned.values()) + 90.0
+    assert point_seconds(Point("m2d2m", 30, 2), "laptop", rates) == pytest.approx(expected)
+
+
+def test_bad_arguments_are_clear_errors(capsys):
+    script = _script()
+    for args, message in (
+        (["--multiples", "0"], "--multiples must be > 0"),
+        (["--batch-factor", "3"], "power of two"),
+        (["--minutes", "-1"], "--minutes must be > 0"),
+        (["--device", "tpu"], "--device must be"),
+        (["--gpu-record", "/nonexistent.json"], "no such file"),
+        (["--profile", "full"], "sets none"),
+        (["--profile", "huge"], "--profile huge"),
+    ):
+        with pytest.raises(SystemExit) as exit_:
+            script.main(args)
+        assert exit_.value.code == 2 and message in capsys.readouterr().err
+
+
+def test_the_book_holds_no_smoke_record_and_says_when_nothing_was_measured():
+    """book/data/scale/ holds GPU results only: without one the book says so, with the command a GPU run needs."""
+    folder = REPO / "book" / "data" / "scale"
+    for path in folder.rglob("*.json"):
+        assert json.loads(path.read_text()).get("profile") != "smoke", path
+    note = scale_study_note(None)
+    assert "not yet measured on a GPU" in note and "experiments/scale.py --device cuda" in note
+
+
+def test_the_recorded_points_measured_the_books_models_and_evaluations():
+    """Every point under book/data/scale/ (none until a GPU run is committed) was trained and scored as the code would
+    now; a change to a studied model or its evaluation fails here until the point is measured again."""
+    study = load_scale_study("laptop")
+    assert study is None or not study.set_aside, "\n".join(study.set_aside)
+
+
+# ----------------------------------------------------------------------------------- the smoke pipeline, end to end
+@pytest.fixture(scope="module")
+def smoke(tmp_path_factory):
+    """``--smoke`` run twice: first with a budget too small for more than one point (it stops), then to the end."""
+    home, out = tmp_path_factory.mktemp("home"), tmp_path_factory.mktemp("scale")
+    first = _run("--smoke", "--minutes", "0.001", "--out", str(out), home=home)
+    first_files = sorted(p.name for p in out.glob("*.json"))
+    second = _run("--smoke", "--out", str(out), home=home)
+    return {"home": home, "out": out, "first": first, "first_files": first_files, "second": second}
+
+
+def test_a_run_stops_between_points_and_the_next_continues(smoke):
+    assert smoke["first_files"] == ["discord-x0.5.json"]  # the first pending point, then out of time
+    assert "stopping: 5 point(s) left" in smoke["first"].stdout and "run again to continue" in smoke["first"].stdout
+    assert "discord-x0.5: recorded already" in smoke["second"].stderr  # not retrained, not rescored
+    assert "all 6 point(s) recorded" in smoke["second"].stdout
+    names = sorted(p.name for p in smoke["out"].glob("*.json"))
+    assert names == [f"{g}-x{m}.json" for g in ("discord", "m2d2m", "projection") for m in ("0.5", "1")]
+
+
+def test_every_run_prints_its_plan_first(smoke):
+    plan = smoke["first"].stdout.splitlines()
+    assert plan[0].startswith("scale study plan, profile smoke") and "no GPU benchmark" in plan[1]  # a CPU run
+    assert any("t2m/dynamic: 150 steps × batch 16: not predicted" in line for line in plan)
+    # planned for a GPU in bf16 (possible without one): the benchmark's measured step times
+    out = str(smoke["home"] / "none")
+    gpu = _run("--smoke", "--plan", "--device", "cuda", "--out", out, home=smoke["home"], MOTIONLAB_PRECISION="bf16")
+    gpu = gpu.stdout
+    assert "the GPU benchmark 2026-12-04-h200-note.json (NVIDIA H200)" in gpu.splitlines()[1]
+    assert any("t2m/dynamic: 150 steps × batch 16" in line and "98.2 ms" in line for line in gpu.splitlines())
+    assert any("tokenizer/vq" in line and "not predicted" in line for line in gpu.splitlines())
+    # the second run predicted from the point the first one measured on this CPU
+    assert "tokenizer/rvq: 40 steps × batch 8" in smoke["second"].stdout
+    assert "measured in discord-x0.5" in smoke["second"].stdout
+    again = _run("--smoke", "--plan", "--out", str(smoke["out"]), home=smoke["home"]).stdout
+    assert "discord-x0.5 (batch ×1): recorded" in again and "to do: ~0.0 min" in again
+
+
+def test_a_record_carries_the_machine_and_its_configs(smoke):
+    record = json.loads((smoke["out"] / "m2d2m-x1.json").read_text())
+    assert {"device", "precision", "torch", "commit", "data", "configs", "values", "tables"} <= set(record)
+    assert record["device_type"] == "cpu" and record["multiple"] == 1.0 and record["batch_factor"] == 1
+    assert record["models"]["t2m/dynamic"] == record["models"]["t2m/dynamic"] | {"steps": 150, "batch": 16}
+    assert record["models"]["t2m/dynamic"]["trained"]  # a fresh cache: every model of the point trained in it
+    assert point_changes(record, "smoke") == []
+
+
+def test_the_records_read_back_into_the_claims_table(smoke, tmp_path, monkeypatch):
+    from motionlab import results
+
+    monkeypatch.setenv(results.RESULTS_ENV, str(tmp_path / "results"))
+    study = load_scale_study("smoke", smoke["out"])
+    assert study.multiples == [0.5, 1.0] and not study.set_aside
+    table = claims_table("smoke", scale=study, budget=None, spread=None)
+    lines = {row.rule: row.scale for row in table}
+    sjpe = lines["discord/sjpe_rf < discord/sjpe_ff"]
+    assert sjpe.startswith("By training samples (scale study, laptop widths, ") and "0.5×: " in sjpe
+    assert lines["projection/heldout_mse_stacked < projection/heldout_mse_repeat_linear"]
+    assert lines["transitions/fid_dynamic < transitions/fid_uniform"] and lines["tps/jerk_tps < tps/jerk_independent"]
+    assert lines["tps/jerk_gt_concat > tps/jerk_gt_single"] == ""  # real motions only: no budget moves them
+    assert lines["discord/time_steps2 < discord/time_steps16"] == ""  # the study times nothing
+    assert "not yet measured on a GPU" in scale_study_note(study)  # smoke ran on the CPU
+    assert "By training samples" in table.html() and "By training samples" in table.to_markdown()
+    verdicts = scale_verdicts(table.rows, study)
+    assert verdicts.columns == ("this build", "0.5×", "1×")
+    row = verdicts.rows["DisCoRD: Reconstruction FID improves with the flow decoder."]
+    assert row["this build"] == "not yet measured" and row["1×"] in ("holds", "does not hold", "inconclusive")
+    with pytest.raises(TypeError, match="scale must be a ScaleStudy"):
+        claims_table("smoke", scale=5, budget=None, spread=None)
+
+
+def test_a_record_of_other_configs_is_set_aside(smoke, tmp_path):
+    folder = tmp_path / "scale"
+    folder.mkdir()
+    for path in smoke["out"].glob("discord-*.json"):
+        (folder / path.name).write_text(path.read_text())
+    record = json.loads((folder / "discord-x1.json").read_text())
+    record["configs"]["models"]["discord/rvq"]["width"] *= 2  # trained wider than the code's smoke decoder
+    (folder / "discord-x1.json").write_text(json.dumps(record))
+    study = load_scale_study("smoke", folder)
+    assert study.multiples == [0.5] and len(study.set_aside) == 1
+    assert study.set_aside[0].startswith("discord-x1.json") and "models.discord/rvq.width" in study.set_aside[0]
+    claim = next(c for c in CLAIMS if c.rule.describe() == "discord/fid_rf < discord/fid_ff")
+    assert sorted(study_scale(claim, study).verdicts) == [0.5]  # the stale point joins no verdict
+    (folder / "discord-x0.5.json").write_text(json.dumps({**record, "multiple": 0.5}))
+    with pytest.warns(UserWarning, match="every scale-study file"):
+        assert load_scale_study("smoke", folder).records == {}
