@@ -19,7 +19,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 
-MEASURE_JS = """
+MEASURE_JS = r"""
 const done = arguments[arguments.length - 1];
 function measure() {
   const article = document.querySelector('article.bd-article') || document.body;
