@@ -25,7 +25,7 @@ from motionlab.build.book_models import chapter_costs
 
 ROOT = Path(__file__).resolve().parent.parent
 HEADER = "| # | chapter | builds | needs | read (min) | cold / warm (min) |"
-_ROW = re.compile(r"^\| (\d\d) \| \[[^\]]*\]\(\.\./notebooks/(\w+)\.ipynb\) \|")
+_ROW = re.compile(r"^\| (\d\d|S\d) \| \[[^\]]*\]\(\.\./notebooks/(\w+)\.ipynb\) \|")
 PROSE_WORDS_PER_MIN = 200  # an ordinary reading pace for technical prose
 CODE_LINES_PER_MIN = 15  # code is read line by line, slower than prose
 # cells the rendered page folds or removes: a reader does not read them on the way through

@@ -203,6 +203,7 @@ CHAPTER_MODELS: dict[str, tuple[str, ...]] = {
     "09_two_phase_sampling": ("data", "tokenizer/vq", "t2m/uniform", "t2m/multi-eta0.25", "discord/vq", "evaluator"),
     "98_full_scale": (),
     "99_what_reproduces": (),
+    "s2_training_budgets": (),  # reads the recorded studies, trains nothing
 }
 
 
