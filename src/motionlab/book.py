@@ -151,12 +151,13 @@ def repository_path(*parts: str) -> Path:
     )
 
 
-def show_source(obj: object):
+def show_source(obj: object, docstring: bool = True):
     """Display the library source of a function, class or module, syntax-highlighted.
 
     Returns an ``IPython.display.Code`` object: as the last expression of a cell it renders in
     Jupyter and in the book. This is the "show me the code" pattern: the chapter explains, the
-    library implements, and the page shows exactly the code that ran.
+    library implements, and the page shows exactly the code that ran. ``docstring=False`` leaves a
+    function's or class's docstring out, where the page's prose already says what it documents.
     """
     if not (inspect.isfunction(obj) or inspect.isclass(obj) or inspect.ismethod(obj) or inspect.ismodule(obj)):
         raise ValueError(f"obj must be a function, method, class or module, got {type(obj).__name__}")
@@ -166,7 +167,22 @@ def show_source(obj: object):
         source = inspect.getsource(obj)
     except (OSError, TypeError) as err:  # built-ins and objects defined in a notebook have no file
         raise ValueError(f"no source available for {obj!r}: {err}") from err
-    return Code(textwrap.dedent(source), language="python")  # methods come indented
+    source = textwrap.dedent(source)  # methods come indented
+    return Code(source if docstring else _without_docstring(source), language="python")
+
+
+def _without_docstring(source: str) -> str:
+    """``source`` of one function or class without its docstring (unchanged when it has none)."""
+    import ast
+
+    body = getattr(ast.parse(source).body[0], "body", [])
+    first = body[0] if body else None
+    if not (
+        isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) and isinstance(first.value.value, str)
+    ):
+        return source
+    lines = source.splitlines(keepends=True)
+    return "".join(lines[: first.lineno - 1] + lines[first.end_lineno :])
 
 
 def embed_animation(anim, close: bool = True, default_mode: str = "loop"):

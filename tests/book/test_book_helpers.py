@@ -50,6 +50,12 @@ def test_setup_rejects_a_bad_threads_variable(monkeypatch, value):
         book.setup(seed=0)
 
 
+def test_show_source_can_leave_the_docstring_out():
+    full, bare = book.show_source(results.record).data, book.show_source(results.record, docstring=False).data
+    assert '"""' in full and '"""' not in bare and bare.startswith("def record(")
+    assert set(bare.splitlines()) <= set(full.splitlines()) and bare.splitlines()[-1] == full.splitlines()[-1]
+
+
 def test_show_source_gives_highlightable_library_code():
     code = book.show_source(results.Less.judge)  # a method: the source comes back dedented
     assert code.language == "python" and code.data.startswith("def judge(")

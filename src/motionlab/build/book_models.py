@@ -204,6 +204,7 @@ CHAPTER_MODELS: dict[str, tuple[str, ...]] = {
     "98_full_scale": (),
     "99_what_reproduces": (),
     "s1_decoder_sweep": ("data", "tokenizer/rvq", "discord/rvq"),
+    "s2_training_budgets": (),  # reads the recorded studies, trains nothing
     "s3_retraining": (),
     "s4_bf16_vs_fp32": (),
 }

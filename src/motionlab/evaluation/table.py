@@ -141,13 +141,13 @@ class EvaluationTable:
             raise KeyError(f"row {row!r} has no metric {metric!r}; it has {list(cells)}")
         return cells[metric]
 
-    def select(self, *rows: str, metrics: Sequence[str] | None = None) -> EvaluationTable:
-        """The same table with only ``rows`` (in that order) and, if given, only ``metrics``."""
+    def select(self, *rows: str, metrics: Sequence[str] | None = None, notes: bool = True) -> EvaluationTable:
+        """The same table with only ``rows`` (in that order) and, if given, only ``metrics``; ``notes=False`` drops
+        the notes under it (for a page that has shown them once already)."""
         chosen = {name: dict(self._row(name)) for name in rows}
         columns = tuple(self.metrics if metrics is None else metrics)
-        return replace(
-            self, rows=chosen, metrics=columns, deterministic=tuple(r for r in self.deterministic if r in rows)
-        )
+        kept = tuple(r for r in self.deterministic if r in rows)
+        return replace(self, rows=chosen, metrics=columns, deterministic=kept, notes=self.notes if notes else [])
 
     def with_rows(
         self, rows: Mapping[str, Mapping[str, Estimate]], deterministic: Sequence[str] = ()
