@@ -280,7 +280,7 @@ def test_verdicts_by_run_judge_each_recorded_run_in_place_of_the_book(tmp_path):
     claim = Claim("DisCoRD", "Table 1", "a is lower", "", Less("discord/a", "discord/b"))
     # one other run is nothing to average with: each run's point difference decides, and the two machines disagree
     row = verdicts_by_run(load_spread("laptop", tmp_path), recorded, [claim]).rows["DisCoRD: a is lower"]
-    assert row == {"this build": HOLDS, "seed 0 (bf16)": HOLDS, "seed 0 (fp32)": FAILS, "agree": "no"}
+    assert row == {"this build": HOLDS, "bf16 runs": f"{HOLDS}: seed 0", "fp32 runs": f"{FAILS}: seed 0", "agree": "no"}
     other = Claim("DisCoRD", "Table 1", "c", "", Less("discord/c", "discord/b"))
     with pytest.raises(ValueError, match="measured none"):
         verdicts_by_run(load_spread("laptop", tmp_path), recorded, [other])
@@ -306,7 +306,8 @@ def test_the_mean_over_runs_reads_alike_where_single_runs_would_not(tmp_path):
     }
     claim = Claim("DisCoRD", "Table 1", "a is lower", "", Less("discord/a", "discord/b"))
     row = verdicts_by_run(spread, recorded, [claim]).rows["DisCoRD: a is lower"]
-    assert len(row) == 8 and set(row.values()) == {HOLDS, "yes"}  # this build and six runs in its place, one verdict
+    every_seed = f"{HOLDS}: seeds 0, 1, 2"  # this build and six runs in its place, one verdict
+    assert row == {"this build": HOLDS, "bf16 runs": every_seed, "fp32 runs": every_seed, "agree": "yes"}
 
 
 def test_a_ground_truth_number_no_run_moves_pools_with_the_model_beside_it(tmp_path):

@@ -222,6 +222,9 @@ def verdicts_by_run(spread: TrainingSpread, recorded: Mapping[str, Result], clai
     or fp32 on another): that run's numbers in place of the chapter's, each keeping the chapter's measurement
     interval, averaged with the other recorded runs by the claims table's rule. A row whose verdicts differ between
     runs is one that another machine can flip.
+
+    Columns: this build's verdict, then one column per precision listing the recorded runs by verdict (e.g.
+    ``holds: seeds 0, 2; inconclusive: seed 1``), then whether every verdict agrees.
     """
     rows: dict[str, dict] = {}
     for claim in claims:
@@ -232,7 +235,7 @@ def verdicts_by_run(spread: TrainingSpread, recorded: Mapping[str, Result], clai
         runs = spread.runs(*studied) if studied else []
         if not runs:
             continue
-        verdicts = {}
+        verdicts: dict = {}
         for run in runs:
             as_run = dict(recorded)
             for key in studied:
@@ -243,13 +246,27 @@ def verdicts_by_run(spread: TrainingSpread, recorded: Mapping[str, Result], clai
                     value=spread.values[key][run],
                     ci=None if ci is None else (ci[0] + shift, ci[1] + shift),
                 )
-            verdicts[str(run)] = claim.rule.judge(as_run, spread)
-        row = {"this build": claim.rule.judge(recorded, spread), **verdicts}
-        row["agree"] = "yes" if len(set(row.values())) == 1 else "no"
+            verdicts[run] = claim.rule.judge(as_run, spread)
+        here = claim.rule.judge(recorded, spread)
+        row = {"this build": here}
+        for precision in sorted({run.precision for run in verdicts}):
+            row[f"{precision} runs"] = _runs_by_verdict({r: v for r, v in verdicts.items() if r.precision == precision})
+        row["agree"] = "yes" if set(verdicts.values()) == {here} else "no"
         rows[f"{claim.paper}: {claim.statement}"] = row
     if not rows:
         raise ValueError("the training-run study measured none of these claims' numbers")
     return Table("claim", rows, notes=(f"measured on {spread.data}: " + "; ".join(spread.measured),))
+
+
+def _runs_by_verdict(verdicts: Mapping) -> str:
+    """``{run: verdict}`` of one precision as ``"holds: seeds 0, 2; inconclusive: seed 1"`` (a cell that wraps)."""
+    by_verdict: dict[str, list[int]] = {}
+    for run, verdict in sorted(verdicts.items()):
+        by_verdict.setdefault(verdict, []).append(run.seed)
+    return "; ".join(
+        f"{verdict}: seed{'s' if len(seeds) > 1 else ''} {', '.join(map(str, seeds))}"
+        for verdict, seeds in by_verdict.items()
+    )
 
 
 def repeat_check(spread: TrainingSpread, recorded: Mapping[str, Result]) -> str:
