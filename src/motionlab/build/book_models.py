@@ -207,6 +207,7 @@ CHAPTER_MODELS: dict[str, tuple[str, ...]] = {
     "s2_training_budgets": (),  # reads the recorded studies, trains nothing
     "s3_retraining": (),
     "s4_bf16_vs_fp32": (),
+    "s5_dead_codes": (),
 }
 
 
