@@ -72,14 +72,11 @@ def load_budget(profile: str, folder: str | Path | None = None) -> BudgetStudy |
     from motionlab.sizes import DENOISER
 
     if folder is None:
-        from motionlab.data.embedded.generator import VERSION
+        from .spread import embedded_data_folder
 
-        from .spread import find_folder
-
-        root = find_folder(FOLDER)
-        if root is None:
+        folder = embedded_data_folder(FOLDER)
+        if folder is None:
             return None
-        folder = root / f"embedded-v{VERSION}"
     found, set_aside = read_records(Path(folder), profile)
     records = {(r["arm"], int(r["training_seed"]), int(r["steps"])): r for r in found}
     if not records:
@@ -290,12 +287,9 @@ def load_eta_axis(profile: str, folder: str | Path | None = None, budget: Budget
     from motionlab.diffusion.training import PAPER_ETA
 
     if folder is None:
-        from motionlab.data.embedded.generator import VERSION
+        from .spread import embedded_data_folder
 
-        from .spread import find_folder
-
-        root = find_folder(ETA_FOLDER)
-        folder = None if root is None else root / f"embedded-v{VERSION}"
+        folder = embedded_data_folder(ETA_FOLDER)
     found, set_aside = read_records(Path(folder), profile) if folder is not None else ([], [])
     records = {float(record["eta"]): record for record in found}
     if not records:

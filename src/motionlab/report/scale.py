@@ -87,14 +87,11 @@ def load_scale_study(profile: str, folder: str | Path | None = None) -> ScaleStu
     """The scale study recorded for ``profile`` (None where none was): the repository's
     ``book/data/scale/embedded-v<N>`` of the current embedded data unless ``folder`` is given."""
     if folder is None:
-        from motionlab.data.embedded.generator import VERSION
+        from .spread import embedded_data_folder
 
-        from .spread import find_folder
-
-        root = find_folder(FOLDER)
-        if root is None:
+        folder = embedded_data_folder(FOLDER)
+        if folder is None:
             return None
-        folder = root / f"embedded-v{VERSION}"
     folder = Path(folder)
     if not folder.is_dir():
         return None

@@ -105,6 +105,15 @@ def find_folder(parts: Sequence[str], start: Path | None = None) -> Path | None:
     return None
 
 
+def embedded_data_folder(parts: Sequence[str]) -> Path | None:
+    """``<repository>/<parts>/embedded-v<N>``, a study's folder for the current version of the embedded data (None
+    where the repository has no ``parts`` folder, e.g. an installed wheel)."""
+    from motionlab.data.embedded.generator import VERSION
+
+    root = find_folder(parts)
+    return None if root is None else root / f"embedded-v{VERSION}"
+
+
 def read_spread(files: Iterable[Path], profile: str) -> TrainingSpread | None:
     """The spread in ``files`` (the study's ``<study>-<profile>-<precision>-seed<k>.json``) for ``profile``; None if
     none match.
@@ -162,12 +171,9 @@ def load_spread(profile: str, folder: str | Path | None = None, data: str | None
     ``folder`` defaults to the repository's ``book/data/training_seeds/embedded-v<N>`` of the current embedded data.
     """
     if folder is None:
-        from motionlab.data.embedded.generator import VERSION
-
-        root = find_folder(FOLDER)
-        if root is None:
+        folder = embedded_data_folder(FOLDER)
+        if folder is None:
             return None
-        folder = root / f"embedded-v{VERSION}"
     spread = read_spread(Path(folder).glob("*.json"), profile)
     if spread is None or (data is not None and spread.data != data):
         return None
