@@ -189,7 +189,7 @@ def test_the_records_read_back_into_the_claims_table(smoke, tmp_path, monkeypatc
     monkeypatch.setenv(results.RESULTS_ENV, str(tmp_path / "results"))
     study = load_scale_study("smoke", smoke["out"])
     assert study.multiples == [0.5, 1.0] and not study.set_aside
-    table = claims_table("smoke", scale=study, budget=None, spread=None)
+    table = claims_table("smoke", scale=study, budget=None, spread=None, gpu=None)  # the scale study alone
     lines = {row.rule: row.scale for row in table}
     sjpe = lines["discord/sjpe_rf < discord/sjpe_ff"]
     assert sjpe.startswith("By training samples (scale study, laptop widths, ") and "0.5×: " in sjpe

@@ -20,6 +20,8 @@ from motionlab.flow.config import discord_config
 from motionlab.sizes import chapter_sizes
 from motionlab.tokenizers.config import rvq_config
 
+from .store import Result
+
 MODEL_NAMES = {
     "rvq": "MoMask RVQ-VAE",
     "discord": "DisCoRD decoder",
@@ -152,8 +154,45 @@ def table1_decode_seconds(run: GPURun, precision: str = "bf16", decoder: str = "
     return math.ceil(clips / 32) * sizes.seeds * per_call[0]
 
 
+# DisCoRD Table E's timing keys (chapter 05 records them on the CPU): (decoder, grid points) in a run's decode records
+TABLE_E_KEYS = {
+    "discord/time_steps2": ("motionlab", 2),
+    "discord/time_steps16": ("motionlab", 16),
+    "discord/time_ff": ("feed-forward", 0),
+}
+TABLE_E_BATCH = 32  # the paper's batch for Table E's times
+
+
+def table_e_results(run: GPURun, precision: str = "fp32") -> dict[str, Result]:
+    """Table E's timing keys as ``run`` measured them: seconds per call at batch 32, 196 frames, the full sizes (the
+    feed-forward decoder is timed in fp32 only, so the comparison is fp32). Keys the run did not time are left out;
+    medians, so no interval."""
+    seconds = {(r["decoder"], r["precision"], r["batch"], r["points"]): r["seconds_median"] for r in run.decode}
+    note = f"{run.machine['device']}, {precision}, batch {TABLE_E_BATCH}, 196 frames, full sizes, {run.path.name}"
+    out = {}
+    for name, (decoder, points) in TABLE_E_KEYS.items():
+        value = seconds.get((decoder, precision, TABLE_E_BATCH, points))
+        if value is not None:
+            chapter, key = name.split("/")
+            out[name] = Result(chapter, key, float(value), unit="s", note=note, profile="full", precision=precision)
+    return out
+
+
+def newest_gpu_run(profile: str | None = None) -> GPURun | None:
+    """The newest run recorded in the repository's ``book/data/gpu`` (None: none, or no repository). A GPU run times
+    the full sizes, so it is the same for every profile; ``profile`` is accepted for the claims table's loaders."""
+    from .spread import find_folder
+
+    folder = find_folder(("book", "data", "gpu"))
+    runs = load_gpu_runs(folder) if folder is not None else []
+    return runs[-1] if runs else None
+
+
 __all__ = [
     "GPURun",
+    "TABLE_E_KEYS",
+    "newest_gpu_run",
+    "table_e_results",
     "decode_table",
     "full_schedule_steps",
     "load_gpu_runs",

@@ -14,6 +14,7 @@ from motionlab.viz.tables import Table
 
 from .budget import BudgetStudy, load_budget, scale_statement
 from .claims import CLAIMS, FINDINGS
+from .gpu import GPURun, newest_gpu_run, table_e_results
 from .quantities import quantity
 from .rules import Claim, Within, training_difference
 from .scale import ScaleStudy, load_scale_study, study_scale
@@ -301,6 +302,7 @@ def judge(
     spread: TrainingSpread | None = None,
     budget: BudgetStudy | None = None,
     scale: ScaleStudy | None = None,
+    gpu: GPURun | None = None,
 ) -> ClaimRow:
     """One row: the claim, our numbers for its keys (a phrase with units and intervals), and the verdict.
 
@@ -308,11 +310,14 @@ def judge(
     its between-run spread joins the verdict's interval and the phrase says how large it is. ``budget``: the budget
     study's (:mod:`motionlab.report.budget`); where it measured the claim's keys, the row says how the claim fares at
     each training budget. ``scale``: the scale study's (:mod:`motionlab.report.scale`), likewise at each multiple of
-    the laptop's training samples.
+    the laptop's training samples. ``gpu``: a run of the GPU benchmark (:mod:`motionlab.report.gpu`); a claim about
+    Table E's decoding times is judged on its times too, by the same rule.
     """
     by_budget = scale_statement(claim, budget) if budget is not None else None
     by_samples = study_scale(claim, scale) if scale is not None else None
     scale_lines = [s.sentence() for s in (by_budget, by_samples) if s is not None]
+    if gpu is not None and (on_gpu := gpu_line(claim, gpu)):
+        scale_lines.append(on_gpu)
     missing = tuple(k for k in claim.keys if k not in recorded)
     verdict = MISSING if missing else claim.rule.judge(recorded, spread)
     mechanism = "\n".join(e.format(recorded) for e in claim.mechanism)
@@ -332,6 +337,16 @@ def judge(
     )
 
 
+def gpu_line(claim: Claim, run: GPURun) -> str | None:
+    """``claim`` judged on the Table E times ``run`` measured on its GPU, as one line (None where the claim reads
+    other keys, or the run did not time them)."""
+    on_gpu = table_e_results(run)
+    if not claim.keys or any(k not in on_gpu for k in claim.keys):
+        return None
+    where = next(iter(on_gpu.values())).note
+    return f"On a GPU ({where}): {claim.rule.sentence(on_gpu)}; {claim.rule.judge(on_gpu, None)}"
+
+
 def claims_table(
     profile: str | None = None,
     recorded: Mapping[str, Result] | None = None,
@@ -339,11 +354,13 @@ def claims_table(
     spread: TrainingSpread | str | None = RECORDED,
     budget: BudgetStudy | str | None = RECORDED,
     scale: ScaleStudy | str | None = RECORDED,
+    gpu: GPURun | str | None = RECORDED,
 ) -> ClaimsTable:
     """Judge every claim on the results recorded for ``profile`` (or on ``recorded`` if given), with the training-seed
     spread recorded for the profile (``spread=None``: on the measurements' intervals alone), and with each claim's
     verdicts at the budget study's training budgets where it was recorded (``budget=None``: without) and at the scale
-    study's multiples of the laptop's training samples (``scale=None``: without)."""
+    study's multiples of the laptop's training samples (``scale=None``: without), and Table E's speed claims on the
+    newest GPU benchmark run in ``book/data/gpu`` (``gpu=None``: without)."""
     profile = get_profile(profile)
     recorded = load_all(profile) if recorded is None else recorded
     spread, budget = (
@@ -351,7 +368,8 @@ def claims_table(
         _study(budget, BudgetStudy, load_budget, profile, "budget"),
     )
     scale = _study(scale, ScaleStudy, load_scale_study, profile, "scale")
-    return ClaimsTable([judge(c, recorded, spread, budget, scale) for c in claims], profile)
+    gpu = _study(gpu, GPURun, newest_gpu_run, profile, "gpu")
+    return ClaimsTable([judge(c, recorded, spread, budget, scale, gpu) for c in claims], profile)
 
 
 @dataclass(frozen=True)
