@@ -99,7 +99,7 @@ def test_the_claims_table_prints_the_scale_of_each_measured_row(study_folder, tm
     assert scales["tps/jerk_gt_single < tps/jerk_tps < tps/jerk_gt_concat"].startswith("By training budget: 800 steps")
     assert scales["discord/sjpe_rf < discord/sjpe_ff"] == ""
     assert "At other scales:" in table.html() and "Measured scale" in table.to_markdown()
-    assert all(row.scale == "" for row in claims_table("laptop", budget=None, spread=None))
+    assert all(row.scale == "" for row in claims_table("laptop", budget=None, spread=None, scale=None, gpu=None))
     with pytest.raises(TypeError, match="budget must be a BudgetStudy"):
         claims_table("laptop", budget=5)
 
