@@ -21,8 +21,6 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
 from motionlab.estimate import Estimate, mean_ci
 
 from .store import HOLDS, Result
@@ -218,17 +216,13 @@ def plot_budget(
     e.g. ``{"transition Jerk": ["tps/jerk_tps", "tps/jerk_gt_single"]}``), one line per key with its 95% interval,
     the laptop's budget marked. Returns the axes.
     """
-    import matplotlib.pyplot as plt  # only when drawn: the claims table must not pay for pyplot
+    from motionlab.viz.plots import panel_axes  # only when drawn: the claims table must not pay for pyplot
 
     from .quantities import quantity
 
     if not panels:
         raise ValueError("need at least one panel")
-    if axes is None:
-        _, axes = plt.subplots(1, len(panels), figsize=figsize, squeeze=False)
-    axes = np.atleast_1d(axes).ravel()
-    if len(axes) != len(panels):
-        raise ValueError(f"{len(panels)} panels need as many axes, got {len(axes)}")
+    axes = panel_axes(len(panels), axes, figsize=figsize)
     for ax, (title, keys) in zip(axes, panels.items()):
         curves = budget_curves(study, keys)
         for i, (key, points) in enumerate(curves.items()):

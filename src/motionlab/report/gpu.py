@@ -51,6 +51,13 @@ class GPURun:
             f"peak {self.peak_tflops:.0f} TFLOP/s"
         )
 
+    def decode_seconds(self, decoder: str, precision: str, batch: int, points: int) -> float | None:
+        """Seconds per decode call of ``decoder`` (``points`` grid points; 0: the feed-forward decoder), or None."""
+        for r in self.decode:
+            if (r["decoder"], r["precision"], r["batch"], r["points"]) == (decoder, precision, batch, points):
+                return r["seconds_median"]
+        return None
+
     def step_ms(self, model: str, variant: str, precision: str = "bf16") -> float | None:
         for r in self.train:
             if (r["model"], r["variant"], r["precision"]) == (model, variant, precision):
@@ -127,12 +134,11 @@ def decode_table(run: GPURun) -> str:
         f"| decoder | precision | {header} | feed-forward (batch 1 / 32) |",
         "|---|---|" + "---:|" * (len(grid) + 1),
     ]
-    seconds = {(r["decoder"], r["precision"], r["batch"], r["points"]): r["seconds_median"] for r in run.decode}
     for decoder in sorted({r["decoder"] for r in run.decode if r["points"]}):
         for precision in sorted({r["precision"] for r in run.decode if r["decoder"] == decoder}):
-            cells = [seconds.get((decoder, precision, b, p)) for b, p in grid]
+            cells = [run.decode_seconds(decoder, precision, b, p) for b, p in grid]
             ff_name = "official feed-forward" if decoder.startswith("official") else "feed-forward"
-            ff = [seconds.get((ff_name, "fp32", b, 0)) for b in (1, 32)]
+            ff = [run.decode_seconds(ff_name, "fp32", b, 0) for b in (1, 32)]
             ff_text = " / ".join(f"{s:.4f}" for s in ff if s is not None) if precision == "fp32" else ""
             text = " | ".join(f"{s:.4f}" if s is not None else "–" for s in cells)
             rows.append(f"| {decoder} | {precision} | {text} | {ff_text} |")
@@ -143,15 +149,11 @@ def table1_decode_seconds(run: GPURun, precision: str = "bf16", decoder: str = "
     """GPU seconds of DisCoRD Table 1's decoding at full scale (every test clip, every seed) at ``run``'s batch-32,
     16-point decode time; None where ``run`` did not time it. The evaluator's forward passes come on top."""
     sizes = chapter_sizes("full").discord
-    per_call = [
-        r["seconds_median"]
-        for r in run.decode
-        if (r["decoder"], r["precision"], r["batch"], r["points"]) == (decoder, precision, 32, 16)
-    ]
-    if not per_call:
+    per_call = run.decode_seconds(decoder, precision, 32, 16)
+    if per_call is None:
         return None
     clips = sizes.test_clips if sizes.test_clips is not None else HUMANML3D_SPLIT_SIZES["test"]  # None: all of it
-    return math.ceil(clips / 32) * sizes.seeds * per_call[0]
+    return math.ceil(clips / 32) * sizes.seeds * per_call
 
 
 # DisCoRD Table E's timing keys (chapter 05 records them on the CPU): (decoder, grid points) in a run's decode records
@@ -167,11 +169,10 @@ def table_e_results(run: GPURun, precision: str = "fp32") -> dict[str, Result]:
     """Table E's timing keys as ``run`` measured them: seconds per call at batch 32, 196 frames, the full sizes (the
     feed-forward decoder is timed in fp32 only, so the comparison is fp32). Keys the run did not time are left out;
     medians, so no interval."""
-    seconds = {(r["decoder"], r["precision"], r["batch"], r["points"]): r["seconds_median"] for r in run.decode}
     note = f"{run.machine['device']}, {precision}, batch {TABLE_E_BATCH}, 196 frames, full sizes, {run.path.name}"
     out = {}
     for name, (decoder, points) in TABLE_E_KEYS.items():
-        value = seconds.get((decoder, precision, TABLE_E_BATCH, points))
+        value = run.decode_seconds(decoder, precision, TABLE_E_BATCH, points)
         if value is not None:
             chapter, key = name.split("/")
             out[name] = Result(chapter, key, float(value), unit="s", note=note, profile="full", precision=precision)

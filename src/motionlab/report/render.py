@@ -302,7 +302,7 @@ def judge(
     spread: TrainingSpread | None = None,
     budget: BudgetStudy | None = None,
     scale: ScaleStudy | None = None,
-    gpu: GPURun | None = None,
+    gpu: Mapping[str, Result] | None = None,
 ) -> ClaimRow:
     """One row: the claim, our numbers for its keys (a phrase with units and intervals), and the verdict.
 
@@ -310,8 +310,8 @@ def judge(
     its between-run spread joins the verdict's interval and the phrase says how large it is. ``budget``: the budget
     study's (:mod:`motionlab.report.budget`); where it measured the claim's keys, the row says how the claim fares at
     each training budget. ``scale``: the scale study's (:mod:`motionlab.report.scale`), likewise at each multiple of
-    the laptop's training samples. ``gpu``: a run of the GPU benchmark (:mod:`motionlab.report.gpu`); a claim about
-    Table E's decoding times is judged on its times too, by the same rule.
+    the laptop's training samples. ``gpu``: Table E's times as a GPU benchmark run measured them
+    (:func:`motionlab.report.gpu.table_e_results`); a claim about them is judged on those too, by the same rule.
     """
     by_budget = scale_statement(claim, budget) if budget is not None else None
     by_samples = study_scale(claim, scale) if scale is not None else None
@@ -337,10 +337,9 @@ def judge(
     )
 
 
-def gpu_line(claim: Claim, run: GPURun) -> str | None:
-    """``claim`` judged on the Table E times ``run`` measured on its GPU, as one line (None where the claim reads
-    other keys, or the run did not time them)."""
-    on_gpu = table_e_results(run)
+def gpu_line(claim: Claim, on_gpu: Mapping[str, Result]) -> str | None:
+    """``claim`` judged on Table E's times as measured on a GPU (:func:`motionlab.report.gpu.table_e_results`), as one
+    line (None where the claim reads other keys, or the run did not time them)."""
     if not claim.keys or any(k not in on_gpu for k in claim.keys):
         return None
     where = next(iter(on_gpu.values())).note
@@ -369,7 +368,8 @@ def claims_table(
     )
     scale = _study(scale, ScaleStudy, load_scale_study, profile, "scale")
     gpu = _study(gpu, GPURun, newest_gpu_run, profile, "gpu")
-    return ClaimsTable([judge(c, recorded, spread, budget, scale, gpu) for c in claims], profile)
+    on_gpu = table_e_results(gpu) if gpu is not None else None
+    return ClaimsTable([judge(c, recorded, spread, budget, scale, on_gpu) for c in claims], profile)
 
 
 @dataclass(frozen=True)

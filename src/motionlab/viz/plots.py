@@ -92,6 +92,17 @@ def plot_trajectories(
     return axes
 
 
+def panel_axes(n: int, axes=None, *, figsize: tuple[float, float], what: str = "panels", **subplots) -> np.ndarray:
+    """``n`` axes in a row, flat: the caller's ``axes`` (checked to be ``n``), or a new figure's (``subplots`` go to
+    ``plt.subplots``, e.g. ``sharey=True``)."""
+    if axes is None:
+        _, axes = plt.subplots(1, n, figsize=figsize, squeeze=False, **subplots)
+    axes = np.atleast_1d(axes).ravel()
+    if len(axes) != n:
+        raise ValueError(f"{n} {what} need as many axes, got {len(axes)}")
+    return axes
+
+
 def plot_history(
     histories: Mapping[str, Sequence[Mapping[str, float]]],
     keys: Mapping[str, str] | Sequence[str],
@@ -111,11 +122,7 @@ def plot_history(
     labels = dict(keys) if isinstance(keys, Mapping) else {k: k for k in keys}
     if not histories or not labels:
         raise ValueError("need at least one history and one key")
-    if axes is None:
-        _, axes = plt.subplots(1, len(labels), figsize=figsize, squeeze=False)
-    axes = np.atleast_1d(axes).ravel()
-    if len(axes) != len(labels):
-        raise ValueError(f"{len(labels)} keys need as many axes, got {len(axes)}")
+    axes = panel_axes(len(labels), axes, figsize=figsize, what="keys")
     for ax, (key, ylabel) in zip(axes, labels.items()):
         drawn = 0
         for name, history in histories.items():
@@ -183,11 +190,7 @@ def plot_clouds(
     """
     if not clouds:
         raise ValueError("clouds is empty")
-    if axes is None:
-        _, axes = plt.subplots(1, len(clouds), figsize=(7.4, 2), sharex=True, sharey=True, squeeze=False)
-    axes = np.atleast_1d(axes).ravel()
-    if len(axes) != len(clouds):
-        raise ValueError(f"{len(clouds)} clouds need as many axes, got {len(axes)}")
+    axes = panel_axes(len(clouds), axes, figsize=(7.4, 2), what="clouds", sharex=True, sharey=True)
     for ax, (title, points) in zip(axes, clouds.items()):
         if background is not None:
             ax.scatter(*np.asarray(background)[:, :2].T, s=1, color="#ccc")
