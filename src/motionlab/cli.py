@@ -28,6 +28,12 @@ Every subcommand has its own --help. The book (make book, then _build/html/index
 explains each model and table; its chapter 98 covers the papers' sizes, real datasets and released checkpoints."""
 
 
+def _examples(*lines: tuple[str, str]) -> str:
+    """A subcommand's ``examples:`` epilog: one ``motionlab ...`` command per line, its comment aligned after it."""
+    width = max(len(command) for command, _ in lines)
+    return "examples:\n" + "\n".join(f"  motionlab {command:<{width}}  # {comment}" for command, comment in lines)
+
+
 class _HelpFormatter(argparse.HelpFormatter):
     """Help that states every option's default and keeps indented example lines as written.
 
@@ -622,7 +628,9 @@ def _add_evaluate(sub) -> None:
     )
     common.add_argument("--seed", type=int, default=0, help="seeds every random draw (default: 0)")
     common.add_argument("--split", choices=["train", "val", "test"], default="test", help="(default: test)")
-    common.add_argument("--json", type=Path, default=None, help="also write the table to this .json file")
+    common.add_argument(
+        "--json", type=Path, default=None, help="also write the table to this .json file (default: none)"
+    )
     common.add_argument("--force", action="store_true", help="replace an existing --json file")
     flow = argparse.ArgumentParser(add_help=False)
     flow.add_argument("--steps", type=int, default=None, help="DisCoRD ODE intervals (default: its config's)")
@@ -638,6 +646,11 @@ def _add_evaluate(sub) -> None:
         help="the papers' tables with 95%% CIs: reconstruction, t2m, multi",
         description="Evaluate the book's cached models (trained on first use) and print a "
         "paper-style Markdown table, mean ± 95% half-width per cell.",
+        epilog=_examples(
+            ("evaluate reconstruction --decoder discord", "DisCoRD Table 1: feed-forward vs DisCoRD rows"),
+            ("evaluate t2m --guidance-scales 0,4", "M2D2M Table 3's metrics, one row per guidance scale"),
+            ("evaluate multi --methods tps,independent", "M2D2M's multi-motion table"),
+        ),
     )
     tasks = evaluate.add_subparsers(dest="task", required=True, metavar="TASK")
     rec = tasks.add_parser(
@@ -646,6 +659,11 @@ def _add_evaluate(sub) -> None:
         help="DisCoRD Table 1: tokens -> decoded motion",
         description="Ground truth -> tokens -> decoded motion: FID, MPJPE, sJPE, Noise and "
         "Static sJPE. The feed-forward decoder is deterministic (one run).",
+        epilog=_examples(
+            ("evaluate reconstruction --decoder discord --json table1.json", "DisCoRD Table 1, also as JSON"),
+            ("evaluate reconstruction --grid euler:1,midpoint:15 --timing-repeats 5", "Table E: steps, solvers, time"),
+            ("evaluate reconstruction --decoder vq --jerk", "the VQ tokenizer's own decoder, with mean jerk"),
+        ),
     )
     rec.add_argument(
         "--decoder",
@@ -664,7 +682,7 @@ def _add_evaluate(sub) -> None:
         "--evaluator",
         default=None,
         help="official:FOLDER: the released T2M evaluator (checkpoints/{t2m,kit}/text_mot_match, Comp_v6_KLD005) "
-        "instead of the book's, which trains on --data on first use",
+        "instead of the book's, which trains on --data on first use (default: the book's)",
     )
     rec.add_argument("--glove", default=None, help="with --evaluator official: the GloVe folder (default: FOLDER)")
     rec.add_argument(
@@ -681,7 +699,7 @@ def _add_evaluate(sub) -> None:
         help="K: the book's tokenizer and DisCoRD decoder trained with seed K, a replicate of the chain (default: 0, "
         "the book's; another seed trains on first use)",
     )
-    rec.add_argument("--limit", type=int, default=None, help="score only the first K clips of the split")
+    rec.add_argument("--limit", type=int, default=None, help="score only the first K clips of the split (default: all)")
     _add_flow_training_options(rec)
     rec.add_argument(
         "--temperature",
@@ -702,7 +720,8 @@ def _add_evaluate(sub) -> None:
     rec.add_argument(
         "--grid",
         default=None,
-        help="DisCoRD Table E: one more DisCoRD row per solver:intervals, e.g. euler:1,euler:16,midpoint:15",
+        help="DisCoRD Table E: one more DisCoRD row per solver:intervals, e.g. euler:1,euler:16,midpoint:15 "
+        "(default: none)",
     )
     rec.add_argument(
         "--grid-repeats", type=int, default=None, help="sampling seeds of each --grid row (default: --repeats)"
@@ -730,6 +749,11 @@ def _add_evaluate(sub) -> None:
         description="The text-to-motion protocol: R-precision top 1-3, FID, MM-Dist, "
         "Diversity (+ MultiModality) of the diffusion model and of the real "
         "motions.",
+        epilog=_examples(
+            ("evaluate t2m --models t2m/uniform,t2m/dynamic", "uniform vs dynamic transitions (chapter 08)"),
+            ("evaluate t2m --guidance-scales 0,1,2,4", "one row per classifier-free guidance scale"),
+            ("evaluate t2m --multimodality --mm-texts 10 --repeats 2", "MultiModality too, a quick look"),
+        ),
     )
     t2m.add_argument(
         "--decoder",
@@ -737,7 +761,7 @@ def _add_evaluate(sub) -> None:
         default="vq",
         help="decode the generated VQ tokens with the VQ decoder or DisCoRD (default: vq)",
     )
-    t2m.add_argument("--limit", type=int, default=None, help="use only the first K clips (K >= 32)")
+    t2m.add_argument("--limit", type=int, default=None, help="use only the first K clips, K >= 32 (default: all)")
     t2m.add_argument("--multimodality", action="store_true", help="also MultiModality (slow)")
     t2m.add_argument("--mm-texts", type=int, default=100, help="texts for MultiModality (default: 100)")
     t2m.add_argument("--mm-repeats", type=int, default=30, help="generations per text (default: 30)")
@@ -750,9 +774,15 @@ def _add_evaluate(sub) -> None:
     t2m.add_argument(
         "--guidance-scales",
         default=None,
-        help="comma-separated guidance scales, one row per scale and model, e.g. 0,1,2,4 (instead of --guidance-scale)",
+        help="comma-separated guidance scales, one row per scale and model, e.g. 0,1,2,4 (instead of --guidance-scale; "
+        "default: --guidance-scale's one row)",
     )
-    t2m.add_argument("--top-p", type=float, default=None, help="truncate p(x0 | x_t) to its top-p mass (e.g. 0.85)")
+    t2m.add_argument(
+        "--top-p",
+        type=float,
+        default=None,
+        help="truncate p(x0 | x_t) to its top-p mass, e.g. 0.85 (default: no truncation)",
+    )
     t2m.add_argument("--reconstruction", action="store_true", help="also the VQ-VAE reconstruction of the real motions")
     t2m.add_argument(
         "--token-stats",
@@ -766,6 +796,11 @@ def _add_evaluate(sub) -> None:
         help="M2D2M multi-motion: TPS vs baselines",
         description="Multi-action instances from the split's single-action clips; "
         "per-action and transition metrics (FID, Diversity, Jerk).",
+        epilog=_examples(
+            ("evaluate multi --methods tps,independent --segment-jerk", "TPS vs independent sampling"),
+            ("evaluate multi --methods tps:T_s=50,slerp:transition=40,handshake", "a switch step and two baselines"),
+            ("evaluate multi --model t2m/multi-eta0.25 --actions 2", "M2D2M's multi-motion model, two actions"),
+        ),
     )
     multi.add_argument(
         "--methods",
@@ -857,14 +892,39 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True)
 
-    data = sub.add_parser("data", help="datasets: generate the embedded one, check a folder, convert BVH takes")
+    data = sub.add_parser(
+        "data",
+        help="datasets: generate the embedded one, check a folder, convert BVH takes",
+        description="The datasets the models train on: the embedded procedural one (made on first use), a "
+        "HumanML3D/KIT-ML folder, or your own BVH takes converted to that layout.",
+        epilog=_examples(
+            ("data check ~/data/HumanML3D", "is a downloaded dataset complete?"),
+            ("data make-embedded --profile smoke --out embedded-smoke", "the embedded dataset, into a folder"),
+            ("data from-bvh takes/ --out my-mocap", "your mocap; then: motionlab train vq --data my-mocap"),
+        ),
+    )
     data_sub = data.add_subparsers(dest="data_command", required=True)
 
-    check = data_sub.add_parser("check", help="validate a HumanML3D/KIT-ML folder and list what is missing")
+    check = data_sub.add_parser(
+        "check",
+        help="validate a HumanML3D/KIT-ML folder and list what is missing",
+        description="Validate a HumanML3D/KIT-ML folder: list what is missing or malformed (exit 1), or say it is "
+        "complete (exit 0).",
+        epilog=_examples(("data check ~/data/HumanML3D", "new_joint_vecs/, texts/, the splits, Mean.npy, ...")),
+    )
     check.add_argument("path", type=Path, help="the dataset folder (new_joint_vecs/, texts/, train.txt, Mean.npy, ...)")
     check.set_defaults(func=_data_check)
 
-    make = data_sub.add_parser("make-embedded", help="generate the embedded procedural dataset")
+    make = data_sub.add_parser(
+        "make-embedded",
+        help="generate the embedded procedural dataset",
+        description="Generate the embedded procedural dataset (HumanML3D layout, t2m skeleton) into the cache, or "
+        "into --out. Training does this on first use; the same seed gives the same clips.",
+        epilog=_examples(
+            ("data make-embedded", "the laptop profile's dataset, into the cache"),
+            ("data make-embedded --profile smoke --out embedded-smoke", "a small one, into a folder to look at"),
+        ),
+    )
     make.add_argument(
         "--profile",
         choices=["smoke", "laptop", "full"],
@@ -872,8 +932,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="dataset size (default: $MOTIONLAB_PROFILE or laptop)",
     )
     make.add_argument("--seed", type=int, default=0, help="seeds the procedural clips and their split")
-    make.add_argument("--out", type=Path, default=None, help="write here instead of the cache (must not exist)")
-    make.add_argument("--clips", type=int, default=None, help="number of clips (needs --out)")
+    make.add_argument(
+        "--out", type=Path, default=None, help="write here instead of the cache (must not exist; default: the cache)"
+    )
+    make.add_argument("--clips", type=int, default=None, help="number of clips, with --out (default: the profile's)")
     make.set_defaults(func=_data_make_embedded)
 
     from_bvh = data_sub.add_parser(
@@ -882,6 +944,10 @@ def build_parser() -> argparse.ArgumentParser:
         description="Your own mocap as a dataset the book trains on (train ... --data DATASET): every .bvh in "
         "FOLDER becomes new_joints, new_joint_vecs and texts; then splits and Mean/Std. A re-run "
         "converts only new or changed takes. Skipped takes are listed with the reason.",
+        epilog=_examples(
+            ("data from-bvh takes/ --out my-mocap", "captions from the file names, CMU joint names"),
+            ("data from-bvh takes/ --out my-mocap --captions captions.csv --mapping t2m", "your captions and crops"),
+        ),
     )
     from_bvh.add_argument("folder", type=Path, help="folder with the .bvh takes (not searched recursively)")
     from_bvh.add_argument("--out", type=Path, required=True, help="the dataset folder to write (or resume)")
@@ -907,6 +973,12 @@ def build_parser() -> argparse.ArgumentParser:
         "tokens (DisCoRD Table 1, `evaluate reconstruction`); `generate`/`evaluate t2m|multi "
         "--decoder discord` use a second DisCoRD decoder, of the diffusion model's VQ tokens: "
         "`train discord --tokenizer vq` trains that one.",
+        epilog=_examples(
+            ("train rvq --profile smoke", "the RVQ tokenizer, in seconds"),
+            ("train discord --tokenizer vq", "the DisCoRD decoder that generate --decoder discord uses"),
+            ("train book --jobs 2", "every model the chapters load, two at a time"),
+            ("train diffusion --data ~/data/HumanML3D --profile full --device cuda", "the paper's size, on a GPU"),
+        ),
     )
     train.add_argument(
         "model",
@@ -944,7 +1016,14 @@ def build_parser() -> argparse.ArgumentParser:
     _add_flow_training_options(train)
     train.set_defaults(func=_train)
 
-    book = sub.add_parser("book", help="build steps of the book (run in its repository); `make book` calls them")
+    book = sub.add_parser(
+        "book",
+        help="build steps of the book (run in its repository); `make book` calls them",
+        description="The steps `make book` runs after `motionlab train book`, run in the book's repository.",
+        epilog=_examples(
+            ("book execute --profile smoke", "every chapter at the smoke profile, then the site's sources")
+        ),
+    )
     book_sub = book.add_subparsers(dest="step", required=True)
     execute = book_sub.add_parser(
         "execute",
@@ -952,6 +1031,10 @@ def build_parser() -> argparse.ArgumentParser:
         description="Execute every chapter of book/_toc.yml into _build/executed/<profile>/notebooks, several at a "
         "time, each in its own kernel; then stage _build/site-src, which Jupyter Book renders without "
         "executing the chapters again. Run `motionlab train book` first so the chapters only load models.",
+        epilog=_examples(
+            ("book execute --profile smoke --jobs 2", "every chapter at the smoke profile, two at a time"),
+            ("book execute --chapters 05_discord --force", "one chapter again, even if nothing changed"),
+        ),
     )
     execute.add_argument(
         "--profile",
@@ -960,7 +1043,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="run profile (default: $MOTIONLAB_PROFILE or laptop)",
     )
     execute.add_argument("--jobs", type=int, default=2, help="chapters executed at once (default 2)")
-    execute.add_argument("--chapters", nargs="+", default=None, help="only these chapters (no staging)")
+    execute.add_argument(
+        "--chapters",
+        nargs="+",
+        default=None,
+        help="only these chapters, e.g. 05_discord; the site is not staged (default: every chapter)",
+    )
     execute.add_argument(
         "--force",
         action="store_true",
@@ -986,6 +1074,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="text to motion; several texts make one multi-action motion (TPS)",
         description="Generate a motion from text with the book's discrete-diffusion model (trained on first use). "
         "Several texts are generated jointly with Two-Phase Sampling.",
+        epilog=_examples(
+            ('generate "a person waves" --profile smoke --out wave.html', "seconds; then open wave.html"),
+            ('generate "a person walks" "a person jumps" --length 80 --out two.html', "two actions, one motion"),
+            ('generate "a person waves" --decoder discord --out wave.bvh', "DisCoRD-decoded, for Blender"),
+            ('generate "a person waves" --seed 1 --out wave.npy', "another sample; HumanML3D features"),
+        ),
     )
     gen.add_argument("texts", nargs="+", help='one or more action descriptions, e.g. "a person waves"')
     gen.add_argument(
@@ -1029,6 +1123,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="convert motion between .bvh, .npy (HumanML3D features) and .html",
         description="Mocap (BVH) becomes HumanML3D features on the t2m skeleton at 20 fps; "
         "features or joints become BVH or a standalone HTML animation.",
+        epilog=_examples(
+            ("convert take.bvh take.html", "look at a take in the browser"),
+            ("convert take.bvh take.npy --start 40 --end 200", "frames 40-199 as HumanML3D features"),
+            ("convert wave.npy wave.bvh", "features to BVH with the t2m skeleton's bones"),
+        ),
     )
     convert.add_argument("src", type=Path, help="input .bvh or .npy (features (T, 263) or joints (T, 22, 3))")
     convert.add_argument("dst", type=Path, help="output .npy, .bvh or .html")
@@ -1036,7 +1135,9 @@ def build_parser() -> argparse.ArgumentParser:
     convert.add_argument("--scale", type=float, default=None, help="BVH units to metres (default: the rig's)")
     convert.add_argument("--up", choices=["y", "z"], default=None, help="up axis of the BVH (default: y)")
     convert.add_argument("--start", type=int, default=0, help="first frame to keep, at 20 fps")
-    convert.add_argument("--end", type=int, default=None, help="frame to stop before, at 20 fps")
+    convert.add_argument(
+        "--end", type=int, default=None, help="frame to stop before, at 20 fps (default: the last frame)"
+    )
     convert.add_argument("--force", action="store_true", help="replace an existing output file")
     convert.set_defaults(func=_convert)
 

@@ -1,11 +1,13 @@
+import argparse
 import json
 import re
+import shlex
 import subprocess
 import sys
 
 import numpy as np
 
-from motionlab.cli import main
+from motionlab.cli import build_parser, main
 from motionlab.io import read_bvh
 from motionlab.representation import Normalizer
 
@@ -140,3 +142,38 @@ def test_threads_option_sets_torch_threads(monkeypatch, capsys):
         assert "MOTIONLAB_THREADS" in capsys.readouterr().err
     finally:
         torch.set_num_threads(before)
+
+
+def _subcommand_parsers(parser: argparse.ArgumentParser, path: tuple[str, ...] = ()):
+    """Every subcommand's parser under ``parser``, with the words that reach it (``("evaluate", "t2m")``)."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, child in action.choices.items():
+                yield (*path, name), child
+                yield from _subcommand_parsers(child, (*path, name))
+
+
+def test_every_subcommand_help_has_examples_that_parse():
+    parser = build_parser()
+    parsers = list(_subcommand_parsers(parser))
+    assert len(parsers) >= 16  # data (3), train, book (1), generate, convert, evaluate (3), pretrained (2)
+    for words, sub in parsers:
+        text = sub.format_help()
+        assert "\nexamples:\n" in text, f"motionlab {' '.join(words)} --help shows no examples"
+        examples = [line.split("  # ")[0].split() for line in sub.epilog.splitlines()[1:]]
+        assert examples and all(e[0] == "motionlab" for e in examples)
+        for example in examples:
+            command = [w.strip('"') for w in shlex.split(" ".join(example))[1:]]
+            assert tuple(command[: len(words)]) == words, f"an example of {words} runs {command}"
+            parser.parse_args(command)  # argparse exits on an option that no longer exists
+
+
+def test_every_option_says_its_default():
+    for words, sub in _subcommand_parsers(build_parser()):
+        formatter = sub._get_formatter()
+        for action in sub._actions:
+            flag = isinstance(action, (argparse._StoreTrueAction, argparse._HelpAction, argparse._SubParsersAction))
+            if not action.option_strings or flag or action.required:
+                continue
+            text = formatter._get_help_string(action)
+            assert "default" in text, f"motionlab {' '.join(words)} {action.option_strings[0]}: no default in its help"

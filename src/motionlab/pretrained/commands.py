@@ -70,12 +70,21 @@ def add_subcommands(subparsers: Any) -> argparse.ArgumentParser:
         "pretrained",
         help="released checkpoints (MoMask RVQ, T2M-GPT VQ, DisCoRD decoder): check a folder, convert it",
         description="Read the checkpoints the papers released, in their released layouts (nothing is downloaded).",
+        epilog="examples:\n"
+        "  motionlab pretrained check DisCoRD/checkpoints/Momask                      # layout, contents, loads?\n"
+        "  motionlab pretrained convert DisCoRD/checkpoints/Momask --out discord-momask  # safetensors + JSON",
     )
     sub = parser.add_subparsers(dest="pretrained_command", required=True)
     meta_help = "T2M-GPT only: the folder with mean.npy, std.npy (default: meta/ beside the checkpoint)"
 
     check_parser = sub.add_parser(
-        "check", help="say which layout a folder is, what it holds and lacks, and whether it loads"
+        "check",
+        help="say which layout a folder is, what it holds and lacks, and whether it loads",
+        description="Say which released layout a folder or file is, what it holds and lacks, and whether it loads "
+        "(exit 0 if it does, 1 if not).",
+        epilog="examples:\n"
+        "  motionlab pretrained check DisCoRD/checkpoints/Momask           # a DisCoRD decoder folder\n"
+        "  motionlab pretrained check pretrained/VQVAE/net_last.pth --meta pretrained/meta  # T2M-GPT's VQ-VAE",
     )
     check_parser.add_argument(
         "folder", type=Path, help="a MoMask / DisCoRD folder, a T2M-GPT .pth, or a converted folder"
@@ -84,7 +93,13 @@ def add_subcommands(subparsers: Any) -> argparse.ArgumentParser:
     check_parser.set_defaults(func=_check)
 
     convert_parser = sub.add_parser(
-        "convert", help="write a checkpoint as model.safetensors + config.json + meta/ (loads without pickle)"
+        "convert",
+        help="write a checkpoint as model.safetensors + config.json + meta/ (loads without pickle)",
+        description="Write a released checkpoint as model.safetensors + config.json + meta/, which motionlab "
+        "loads without unpickling anything (auto:FOLDER in other commands).",
+        epilog="examples:\n"
+        "  motionlab pretrained convert DisCoRD/checkpoints/Momask --out discord-momask  # decoder + its tokenizer\n"
+        "  motionlab pretrained convert momask/rvq_nq6_dc512_nc512_noshare_qdp0.2 --out momask-rvq  # MoMask RVQ",
     )
     convert_parser.add_argument("folder", type=Path, help="what to convert (any layout `pretrained check` knows)")
     convert_parser.add_argument("--out", type=Path, required=True, help="the folder to write (must be new or empty)")
@@ -92,6 +107,11 @@ def add_subcommands(subparsers: Any) -> argparse.ArgumentParser:
     convert_parser.add_argument(
         "--tokenizer", type=Path, default=None, help="DisCoRD only: the tokenizer folder (default: vqvae_weight_path)"
     )
-    convert_parser.add_argument("--checkpoint", default=None, help="a file name inside the folder's checkpoint folder")
+    convert_parser.add_argument(
+        "--checkpoint",
+        default=None,
+        help="a file name inside the folder's checkpoint folder "
+        "(default: MoMask's net_best_fid.tar, a DisCoRD folder's only one)",
+    )
     convert_parser.set_defaults(func=_convert)
     return parser
