@@ -13,7 +13,7 @@ from motionlab.evaluation.studies import budget_evaluations, budget_model_config
 from motionlab.multimotion import GROUND_TRUTH_CONCAT, GROUND_TRUTH_SINGLE
 from motionlab.report.budget import budget_results, load_budget, scale_statement
 from motionlab.report.render import claims_table
-from motionlab.results import CLAIMS, FAILS, HOLDS
+from motionlab.results import CLAIMS, FAILS, HOLDS, MISSING
 from motionlab.train.cache import config_dict
 
 LAPTOP = 800  # the laptop profile's training steps
@@ -194,3 +194,70 @@ def test_the_recorded_budgets_measured_the_books_models_and_evaluations():
     assert study is not None and axis is not None
     assert not study.set_aside and not axis.set_aside, "\n".join(study.set_aside + axis.set_aside)
     assert len(study.records) >= 18 and {800, 3200, 8000} <= set(study.budgets)
+
+
+def _scale_study(values: dict[str, tuple[float, float]], multiples=(10.0, 30.0)):
+    """A scale study with the same ``values`` (key -> (mean, half-width)) at each multiple, trained on an H200."""
+    from motionlab.report.scale import ScaleStudy
+
+    records = {
+        ("m2d2m", m): {
+            "group": "m2d2m",
+            "multiple": m,
+            "device": "NVIDIA H200",
+            "precision": "bf16",
+            "values": {k: {"mean": mean * (1 + 0.01 * i), "half_width": half} for k, (mean, half) in values.items()},
+        }
+        for i, m in enumerate(multiples)
+    }
+    return ScaleStudy("laptop", records)
+
+
+def test_the_budget_figure_adds_the_scale_study_s_points(study_folder):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from motionlab.report import plot_budget, plot_scale
+
+    budget = load_budget("laptop", study_folder)
+    scale = _scale_study({"tps/jerk_tps": (1.5, 0.05), "tps/jerk_gt_single": (1.6, 0.03)})
+    (ax,) = plot_budget(budget, {"transition Jerk": ["tps/jerk_tps", "tps/jerk_gt_single"]}, scale=scale)
+    diamonds = [line for line in ax.lines if line.get_marker() == "D" and len(line.get_xdata())]
+    assert len(diamonds) == 1  # TPS's; the real motions' Jerk does not depend on training
+    assert list(diamonds[0].get_ydata()) == [1.5, 1.5 * 1.01]
+    assert diamonds[0].get_xdata()[0] == pytest.approx(10 * LAPTOP * 0.98 * 1.06)  # 10x samples, dodged
+    assert [t.get_text() for t in ax.get_xticklabels()] == ["800", "3,200", "8,000", "24,000"]
+    assert ax.get_legend().get_texts()[-1].get_text() == "scale study (NVIDIA H200, bf16)"
+    assert ax.get_xlabel().startswith("steps at the laptop's batch")
+    (plain,) = plot_budget(budget, {"transition Jerk": ["tps/jerk_tps"]})
+    assert plain.get_xlabel() == "training steps (dashed: the laptop's)"
+
+    this_build = budget_results(budget, LAPTOP)
+    (ax,) = plot_scale(scale, {"transition Jerk": ["tps/jerk_tps"]}, this_build=this_build)
+    assert [t.get_text() for t in ax.get_xticklabels()] == ["1×", "10×", "30×"]
+    here = [line for line in ax.lines if line.get_marker() == "o"]
+    assert list(here[0].get_xdata()) == [1.0] and list(here[0].get_ydata()) == [1.2]
+    with pytest.raises(KeyError, match="recorded no 'discord/sjpe_rf'"):
+        plot_scale(scale, {"sJPE": ["discord/sjpe_rf"]})
+
+
+def test_a_chapter_says_in_one_sentence_where_its_verdicts_change_with_scale():
+    from types import SimpleNamespace
+
+    from motionlab.report import scale_changes
+
+    guidance = _claim("diffusion/fid_guided")  # guidance lowers FID: fid_guided < fid_unguided
+    rows = [SimpleNamespace(verdict=FAILS if c is guidance else HOLDS) for c in CLAIMS]
+    none = scale_changes(rows, None, "diffusion")
+    assert "no point for this chapter's claims yet" in none and none.count(".") == 1
+    lower = _scale_study({"diffusion/fid_guided": (4.0, 0.5), "diffusion/fid_unguided": (6.0, 0.5)})
+    sentence = scale_changes(rows, lower, "diffusion")
+    assert sentence.startswith("At 10×, 30× the laptop's training samples (NVIDIA H200, bf16), 1 of 1 verdicts change")
+    assert "does not hold here, holds at 10×, holds at 30×." in sentence
+    higher = _scale_study({"diffusion/fid_guided": (8.0, 0.5), "diffusion/fid_unguided": (6.0, 0.5)})
+    assert "no verdict of this chapter changes (1 claim(s) judged)" in scale_changes(rows, higher, "diffusion")
+    assert "no point" in scale_changes(rows, higher, "tps")  # the study measured none of chapter 09's keys
+    unmeasured = [SimpleNamespace(verdict=MISSING) for _ in CLAIMS]
+    assert "this build has not measured them" in scale_changes(unmeasured, higher, "diffusion")
+    with pytest.raises(ValueError, match="no claim reads chapter 'nothing'"):
+        scale_changes(rows, higher, "nothing")

@@ -15,11 +15,12 @@ from __future__ import annotations
 
 import json
 import warnings
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from motionlab.estimate import format_estimate
+from motionlab.comparison import Sentence
+from motionlab.estimate import Estimate, format_estimate
 
 from .budget import MODEL_FREE
 from .rules import Greater, Less
@@ -27,6 +28,11 @@ from .store import HOLDS, Result
 
 FOLDER = ("book", "data", "scale")
 GPU_COMMAND = "PYTHONPATH=src python experiments/scale.py --device cuda --minutes 8 --out $OUT/scale"
+
+
+def profile_text(profile: str) -> str:
+    """Whose budget a multiple multiplies: ``the laptop's``, ``the smoke profile's``."""
+    return "the laptop's" if profile == "laptop" else f"the {profile} profile's"
 
 
 def multiple_text(multiple: float) -> str:
@@ -44,6 +50,11 @@ class ScaleStudy:
     _results: dict = field(default_factory=dict, compare=False, repr=False)  # results per multiple, built once
 
     @property
+    def groups(self) -> set[str]:
+        """The model groups with at least one recorded point (``discord``, ``projection``, ``m2d2m``)."""
+        return {g for g, _ in self.records}
+
+    @property
     def multiples(self) -> list[float]:
         """The multiples at which at least one group was recorded (sorted)."""
         return sorted({m for _, m in self.records})
@@ -57,6 +68,10 @@ class ScaleStudy:
                     out |= _record_results(record, self.profile)
             self._results[multiple] = out
         return self._results[multiple]
+
+    def where_all(self) -> str:
+        """Every device and precision the study's points were trained in, joined by ``/``."""
+        return " / ".join(sorted({self.where(m) for m in self.multiples}))
 
     def where(self, multiple: float, keys=None) -> str:
         """Where the models of ``multiple`` were trained: ``NVIDIA H200, bf16`` (several joined by ``/``), from the
@@ -195,7 +210,7 @@ def scale_study_note(study: ScaleStudy | None) -> str:
         return f"Scale study: not yet measured on a GPU{aside}; a GPU run needs `{GPU_COMMAND}`."
     gpu = any(r.get("device_type") == "cuda" for r in study.records.values())
     points = ", ".join(f"{multiple_text(m)} ({study.where(m)})" for m in study.multiples)
-    groups = sorted({g for g, _ in study.records})
+    groups = sorted(study.groups)
     text = f"Scale study: {len(study.records)} point(s) of {', '.join(groups)} at {points}"
     if not gpu:
         text += "; not yet measured on a GPU"
@@ -227,8 +242,115 @@ def scale_verdicts(rows, study: ScaleStudy, claims=None):
     return Table("claim", table, columns, notes=("trained on: " + "; ".join(notes),))
 
 
+def chapter_claims(chapter: str, claims=None) -> list:
+    """The claims of ``chapter`` (the results' chapter name, e.g. ``"diffusion"``: the prefix of their keys)."""
+    from .claims import CLAIMS
+
+    claims = CLAIMS if claims is None else claims
+    found = [c for c in claims if c.keys[0].split("/", 1)[0] == chapter]
+    if not found:
+        raise ValueError(f"no claim reads chapter {chapter!r}'s results")
+    return found
+
+
+def scale_changes(table, study: ScaleStudy | None, chapter: str, claims=None) -> Sentence:
+    """One sentence for a chapter: which of its claims change verdict between this build (the claims table ``table``,
+    whose rows follow ``claims``, default :data:`~motionlab.report.claims.CLAIMS`) and the scale study's multiples,
+    or that none does, or that the study has no point for them yet."""
+    from .claims import CLAIMS
+    from .store import MISSING
+
+    claims = CLAIMS if claims is None else claims
+    rows = dict(zip(claims, table, strict=True))
+    scaled = {c: study_scale(c, study) for c in chapter_claims(chapter, claims)} if study is not None else {}
+    scaled = {c: s for c, s in scaled.items() if s is not None}
+    if not scaled:
+        return Sentence(
+            "The scale study has no point for this chapter's claims yet (it needs a GPU run; chapter 99 gives the "
+            "command), so their verdicts are this build's alone."
+        )
+    judged = {c: s for c, s in scaled.items() if rows[c].verdict != MISSING}
+    if not judged:
+        return Sentence("The scale study has points for this chapter's claims, but this build has not measured them.")
+    multiples = sorted({m for s in judged.values() for m in s.verdicts})
+    machines = sorted({w for s in judged.values() for w in s.where.values()})
+    samples = f"{profile_text(study.profile)} training samples"
+    at = f"At {', '.join(multiple_text(m) for m in multiples)} {samples} ({' / '.join(machines)})"
+    changed = [c for c, scaled in judged.items() if any(v != rows[c].verdict for v in scaled.verdicts.values())]
+    if not changed:
+        return Sentence(f"{at}, no verdict of this chapter changes ({len(judged)} claim(s) judged).")
+
+    def path(claim) -> str:
+        verdicts = judged[claim].verdicts
+        steps = ", ".join(f"{verdicts[m]} at {multiple_text(m)}" for m in sorted(verdicts))
+        return f"“{claim.statement}” {rows[claim].verdict} here, {steps}"
+
+    return Sentence(f"{at}, {len(changed)} of {len(judged)} verdicts change: " + "; ".join(map(path, changed)) + ".")
+
+
+def scale_points(study: ScaleStudy, key: str) -> list[tuple[float, Estimate]]:
+    """``[(multiple, estimate), ...]``: ``key`` at every multiple that recorded it, smallest first."""
+    return [(m, study.results(m)[key].estimate) for m in study.multiples if key in study.results(m)]
+
+
+SCALE_MARKER = {"marker": "D", "mfc": "none", "ms": 4, "ls": "none", "capsize": 2}  # the scale study's points
+
+
+def plot_scale(
+    study: ScaleStudy, panels: Mapping[str, Sequence[str]], *, this_build=None, axes=None, figsize=(7.4, 2.4)
+):
+    """Claim numbers against the multiple of the laptop's training samples: one panel per entry of ``panels`` (title
+    -> claim keys), one colour per key; the scale study's points as hollow diamonds with their 95% intervals, and
+    this build's (1×, circles) from ``this_build`` (key -> :class:`~motionlab.report.store.Result`, e.g.
+    ``results.load_all(profile)``) where given. Returns the axes."""
+    from matplotlib.lines import Line2D
+
+    from motionlab.viz.plots import panel_axes  # only when drawn
+
+    from .quantities import quantity
+
+    if not panels:
+        raise ValueError("need at least one panel")
+    axes = panel_axes(len(panels), axes, figsize=figsize)
+    for ax, (title, keys) in zip(axes, panels.items()):
+        for key in keys:
+            points = scale_points(study, key)
+            if not points:
+                raise KeyError(f"the scale study recorded no {key!r}")
+            label = quantity(key)[1] or key
+            line = ax.errorbar(
+                [m for m, _ in points],
+                [e.mean for _, e in points],
+                yerr=[e.half_width for _, e in points],
+                label=label,
+                **SCALE_MARKER,
+            )
+            if this_build is not None and key in this_build:
+                here = this_build[key].estimate
+                color = line.lines[0].get_color()
+                ax.errorbar([1.0], [here.mean], yerr=[here.half_width], marker="o", ms=3, capsize=2, color=color)
+        multiples = [1.0, *study.multiples] if this_build is not None else study.multiples
+        ax.set_xscale("log")
+        ax.set_xticks(multiples, [multiple_text(m) for m in multiples])
+        ax.minorticks_off()
+        ax.set_xlabel(f"training samples (× {profile_text(study.profile)})")
+        ax.set_title(title, fontsize=9)
+        handles, _ = ax.get_legend_handles_labels()
+        marker = {k: v for k, v in SCALE_MARKER.items() if k != "capsize"}
+        handles.append(Line2D([], [], color="gray", label=f"scale study ({study.where_all()})", **marker))
+        if this_build is not None:
+            handles.append(Line2D([], [], color="gray", marker="o", ms=3, ls="none", label="this build"))
+        ax.legend(handles=handles, fontsize=7, framealpha=0.8)
+    return axes
+
+
 __all__ = [
     "GPU_COMMAND",
+    "SCALE_MARKER",
+    "chapter_claims",
+    "plot_scale",
+    "scale_changes",
+    "scale_points",
     "ScaleStudy",
     "StudyScale",
     "load_scale_study",
