@@ -9,7 +9,7 @@ from pathlib import Path
 
 import yaml
 
-from motionlab.build.build_times import ColdBuild, cold_build_line, cold_builds
+from motionlab.build.build_times import ColdBuild, cold_build_line, cold_builds, cold_tests
 
 ROOT = Path(__file__).resolve().parents[2]
 README = (ROOT / "README.md").read_text(encoding="utf-8")
@@ -54,10 +54,15 @@ def test_licence_and_citation_are_present():
 def test_readme_intro_and_tool_quote_the_one_record_of_build_times():
     builds = cold_builds(ROOT)
     assert len(builds) >= 2 and builds[0].cpu.startswith("AMD EPYC Zen 3")  # slowest first
-    expected = {b.phrase() for b in builds}
-    for name, text in (("README.md", README), ("book/intro.md", INTRO)):
+    tests = cold_tests(ROOT)
+    assert tests, "the README's time for make test is recorded too"
+    for name, text, runs in (("README.md", README, builds + tests), ("book/intro.md", INTRO, builds)):
         flat = " ".join(text.split())
-        assert set(_BUILD_PHRASE.findall(flat)) == expected, f"{name} quotes build times not in cold_builds.json"
+        quoted = set(_BUILD_PHRASE.findall(flat))
+        assert quoted == {r.phrase() for r in runs}, f"{name} quotes build times not in cold_builds.json"
+    flat = " ".join(README.split())
+    make_test = flat[flat.index("`make test` is") :].split(". ")[0]
+    assert all(t.phrase() in make_test for t in tests)  # quoted where make test is described, not make book
     assert all(b.phrase() in cold_build_line(ROOT) for b in builds)
 
 
@@ -80,7 +85,7 @@ def test_the_recorded_builds_match_their_per_model_records():
     from motionlab.build.plan import Job, expected_wall_seconds
 
     record = json.loads((ROOT / "book" / "data" / "build_times" / "cold_builds.json").read_text())
-    for build in record["builds"]:
+    for build in record["builds"] + record["tests"]:
         assert set(build) <= {"cpu", "precision", "minutes", "commit", "date", "note"}
         assert build["precision"] in ("fp32", "bf16") and 0 < build["minutes"] < 600
     zen3 = next(b for b in cold_builds(ROOT) if b.commit)

@@ -1,8 +1,10 @@
-"""How long a whole cold ``make book`` takes on each kind of CPU measured: the one source of those numbers.
+"""How long a whole cold ``make book`` (and ``make test``) takes on each kind of CPU measured: the one source of
+those numbers.
 
 The README, the book's intro and ``motionlab train book`` all quote these builds; a test checks that they quote
 what :func:`cold_builds` reads from ``book/data/build_times/cold_builds.json``, so a new measurement is recorded
-once, there, and the pages are regenerated from it instead of being edited by hand.
+once, there, and the pages are regenerated from it instead of being edited by hand. The README's time for ``make
+test`` comes from the same file (:func:`cold_tests`).
 """
 
 from __future__ import annotations
@@ -36,13 +38,22 @@ def book_root() -> Path | None:
     return root if (root / "book" / "_toc.yml").is_file() else None
 
 
-def cold_builds(root: str | Path | None = None) -> list[ColdBuild]:
-    """The recorded cold builds, slowest first; ``[]`` where the record is absent (outside the repository)."""
+def _recorded(root: str | Path | None, kind: str) -> list[ColdBuild]:
     root = Path(root) if root is not None else book_root()
     if root is None or not (root / RECORD).is_file():
         return []
-    builds = [ColdBuild(**entry) for entry in json.loads((root / RECORD).read_text())["builds"]]
-    return sorted(builds, key=lambda b: -b.minutes)
+    runs = [ColdBuild(**entry) for entry in json.loads((root / RECORD).read_text()).get(kind, [])]
+    return sorted(runs, key=lambda b: -b.minutes)
+
+
+def cold_builds(root: str | Path | None = None) -> list[ColdBuild]:
+    """The recorded cold builds, slowest first; ``[]`` where the record is absent (outside the repository)."""
+    return _recorded(root, "builds")
+
+
+def cold_tests(root: str | Path | None = None) -> list[ColdBuild]:
+    """The recorded cold ``make test`` runs (a fresh clone: new ``.venv``, empty model cache), slowest first."""
+    return _recorded(root, "tests")
 
 
 def cold_build_line(root: str | Path | None = None) -> str:
@@ -53,4 +64,4 @@ def cold_build_line(root: str | Path | None = None) -> str:
     return "a whole cold `make book` (laptop) took " + "; ".join(b.phrase() for b in builds)
 
 
-__all__ = ["RECORD", "ColdBuild", "book_root", "cold_build_line", "cold_builds"]
+__all__ = ["RECORD", "ColdBuild", "book_root", "cold_build_line", "cold_builds", "cold_tests"]
