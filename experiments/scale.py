@@ -27,8 +27,14 @@ The first GPU run thus predicts from the benchmark and every later one from the 
 Run by run: a point is the unit of work. A finished point is written at once (atomically) and never redone; a run
 with ``--minutes N`` always does its first pending point, then starts another only while the time left covers the
 point's prediction (or, unpredicted, while any is left), and stops cleanly between points, printing what is left.
-The trained models live in the model cache on the leased machine and do not come back with the outputs: a point cut
-off mid-way (the lease ending) is retrained from the start by the next run, at the cost of its predicted time again.
+The trained models live in the model cache on the leased machine. With ``--carry-out DIR`` a run packs what the
+remaining points need into ``DIR`` (at most ``--carry-parts`` files of 15 MiB, :mod:`motionlab.studies.carry`): the
+finished models they load (the evaluator, a tokenizer two groups share) and the newest checkpoint of a training cut
+off mid-way; ``--carry-in DIR`` on the next lease unpacks it first, so that point resumes from its checkpoint instead
+of starting again, and a point longer than one command finishes over several. With ``--carry-out`` a run uses all of
+``--minutes`` and is stopped from outside (``timeout -s INT``, as ``tools/gpu_lease.sh`` does); it packs on the way
+out. Without it, a point cut off is retrained from the start by the next run, at the cost of its predicted time again.
+A resumed model's record says from which step (``"resumed_from"``); its seconds time the rest of the steps only.
 
 Each point's record, ``<out>/<group>-x<multiple>.json``, holds the device (the GPU's name, or the CPU's), the
 precision, the torch version, the commit, the data, the batch factor, every model's steps × batch and time, the
@@ -52,6 +58,8 @@ from motionlab.build.stamp import machine_stamp
 from motionlab.data.embedded.generator import VERSION
 from motionlab.evaluation.scale import GROUPS, MULTIPLES, point_changes, scaled_budgets
 from motionlab.io.common import write_text_atomic
+from motionlab.paths import cache_dir
+from motionlab.studies.carry import carried_folders, pack_cache, unpack_cache
 from motionlab.studies.scale import (
     Point,
     Rates,
@@ -174,6 +182,9 @@ def _parse(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--plan", action="store_true", help="print the plan with predicted times and exit")
     parser.add_argument("--smoke", action="store_true", help="smoke profile, tiny multiples, CPU: the pipeline only")
     parser.add_argument("--out", type=Path, help="where the records go (default: book/data/scale/embedded-v<N>)")
+    parser.add_argument("--carry-in", type=Path, help="unpack the model cache a previous run carried out (its folder)")
+    parser.add_argument("--carry-out", type=Path, help="pack what the remaining points need here (on exit too)")
+    parser.add_argument("--carry-parts", type=int, default=4, help="files of 15 MiB the carried cache may take")
     args = parser.parse_args(argv)
     if args.smoke:
         args.profile, args.multiples = "smoke", args.multiples or list(SMOKE_MULTIPLES)
@@ -196,6 +207,10 @@ def _parse(argv: list[str] | None) -> argparse.Namespace:
         parser.error(f"--device {args.device}: torch sees no CUDA device here")
     if not (args.device == "cpu" or args.device.startswith("cuda")):
         parser.error(f"--device must be cpu, cuda, cuda:N or auto, got {args.device!r}")
+    if args.carry_in is not None and not args.carry_in.is_dir():
+        parser.error(f"--carry-in {args.carry_in}: no such folder")
+    if args.carry_parts < 1:
+        parser.error("--carry-parts must be >= 1")
     if args.gpu_record is not None and not args.gpu_record.is_file():
         parser.error(f"--gpu-record {args.gpu_record}: no such file")
     try:  # a profile without budgets of its own (full: the papers') has nothing to multiply
@@ -224,13 +239,33 @@ def main(argv: list[str] | None = None) -> int:
     if args.plan:
         return 0
     args.out.mkdir(parents=True, exist_ok=True)
+    if args.carry_in is not None:
+        unpacked = unpack_cache(args.carry_in, cache_dir())
+        _log(f"carried in: {', '.join(unpacked) if unpacked else 'nothing'}")
+    try:
+        return _run_points(args, points, records, done, rates, run, precision, device_type)
+    except KeyboardInterrupt:  # the lease's hard stop: trainings keep their last checkpoint
+        left = [p.key for p in points if p.key not in done]
+        print(f"interrupted: {len(left)} point(s) left ({', '.join(left)}); run again to continue", flush=True)
+        return 130
+    finally:
+        if args.carry_out is not None:
+            pending = [p for p in points if p.key not in done]
+            configs = [c for p in pending for c in _configs(p, args.profile)["models"].values()]
+            folders = carried_folders(cache_dir(), configs)
+            print(pack_cache(cache_dir(), folders, args.carry_out, args.carry_parts)[1], flush=True)
+
+
+def _run_points(args, points, records, done, rates, run, precision, device_type) -> int:
+    """Train and record the pending points in order, until done or out of time (``done`` grows as they finish)."""
     deadline = None if args.minutes is None else time.monotonic() + 60 * args.minutes
     finished = 0
     for point in points:
         if point.key in done:
             _log(f"{point.key}: recorded already")
             continue
-        if deadline is not None and finished and _no_time(deadline, point_seconds(point, args.profile, rates)):
+        predicted = point_seconds(point, args.profile, rates)
+        if deadline is not None and finished and _no_time(deadline, predicted, args.carry_out is not None):
             left = [p.key for p in points if p.key not in done]
             print(f"stopping: {len(left)} point(s) left ({', '.join(left)}); run again to continue", flush=True)
             return 0
@@ -246,10 +281,11 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def _no_time(deadline: float, predicted: float | None) -> bool:
-    """Whether the next point should wait for the next run: past the deadline, or predicted not to fit before it."""
+def _no_time(deadline: float, predicted: float | None, carried: bool = False) -> bool:
+    """Whether the next point should wait for the next run: past the deadline, or predicted not to fit before it
+    (unless the cache is carried out, when a point cut off resumes next run: then any time left is used)."""
     left = deadline - time.monotonic()
-    return left <= 0 or (predicted is not None and predicted > left)
+    return left <= 0 or (not carried and predicted is not None and predicted > left)
 
 
 if __name__ == "__main__":

@@ -15,8 +15,10 @@
 #     SCALE_ONLY=1 tools/gpu_lease.sh     # the scale study alone: its next points, for SCALE_MINUTES (8) of training
 #     SCALE_ONLY=1 SCALE_DEVICE=cpu SCALE_ARGS="--smoke" tools/gpu_lease.sh   # its dry run on a CPU (about 2 minutes)
 #
-# The scale study continues from the records committed under book/data/scale/embedded-v<N>/ (copied to $OUT/scale
-# first); copy $OUT/scale/*.json back there and commit them after the lease.
+# The scale study continues from the records committed under book/data/scale/embedded-v<N>/. After the lease, copy
+# $OUT/scale/*.json (the points this run added) there and commit them, and replace _build/gpu-carry/ with the run's
+# $OUT/scale-cache.tgz.* parts (the models the remaining points need, and a training cut off at its last checkpoint):
+# name _build/gpu-carry in the next lease's carry, and that lease resumes where this one stopped.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 OUT=${OUT:-_build/gpu}
@@ -25,11 +27,21 @@ export PYTHONPATH=src${PYTHONPATH:+:$PYTHONPATH}
 
 if [ -n "${SCALE_ONLY:-}" ]; then
   version=$(python -c "from motionlab.data.embedded.generator import VERSION; print(VERSION)")
-  mkdir -p "$OUT/scale"
-  cp book/data/scale/embedded-v"$version"/*.json "$OUT/scale/" 2>/dev/null  # none yet: the run starts at 10x
-  python experiments/scale.py --device "${SCALE_DEVICE:-cuda}" --minutes "${SCALE_MINUTES:-8}" --out "$OUT/scale" \
+  committed=book/data/scale/embedded-v"$version"
+  records=${SCALE_RECORDS:-/tmp/scale-records}
+  export MOTIONLAB_HOME=${MOTIONLAB_HOME:-/tmp/motionlab-home}
+  rm -rf "$records" && mkdir -p "$records" "$OUT/scale"
+  cp "$committed"/*.json "$records/" 2>/dev/null  # none yet: the run starts at 10x
+  carry_in=()
+  [ -d _build/gpu-carry ] && carry_in=(--carry-in _build/gpu-carry)  # the last lease's scale-cache.tgz.* parts
+  # stopped from outside at SCALE_SECONDS: a training cut off keeps its last checkpoint, packed into $OUT on the way out
+  timeout -s INT -k 60 "${SCALE_SECONDS:-510}" python experiments/scale.py --device "${SCALE_DEVICE:-cuda}" \
+    --minutes "${SCALE_MINUTES:-8}" --out "$records" "${carry_in[@]}" --carry-out "$OUT" --carry-parts 4 \
     ${SCALE_ARGS:-} > "$OUT/scale.txt" 2>&1
   echo "scale exit $?" >> "$OUT/scale.txt"
+  for f in "$records"/*.json; do  # only what this run added or measured again: a lease returns at most 8 files
+    [ -e "$f" ] && ! cmp -s "$f" "$committed/$(basename "$f")" && cp "$f" "$OUT/scale/"
+  done
   exit 0
 fi
 

@@ -223,3 +223,72 @@ def test_a_record_of_other_configs_is_set_aside(smoke, tmp_path):
     (folder / "discord-x0.5.json").write_text(json.dumps({**record, "multiple": 0.5}))
     with pytest.warns(UserWarning, match="every scale-study file"):
         assert load_scale_study("smoke", folder).records == {}
+
+
+# ------------------------------------------------------------------------------ the model cache carried between runs
+def _artefact(root: Path, family: str, key: str, config: dict, size: int = 10) -> Path:
+    folder = root / "models" / family / "laptop" / key
+    folder.mkdir(parents=True)
+    (folder / "config.json").write_text(json.dumps({"name": family, "config": config}))
+    (folder / "model.safetensors").write_bytes(bytes(size))
+    return folder
+
+
+def test_the_carried_cache_holds_what_pending_points_need_and_newest_checkpoints(tmp_path, monkeypatch):
+    from motionlab.studies import carry
+
+    cache = tmp_path / "cache"
+    _artefact(cache, "rvq", "aaa", {"steps": 10, "shape": (1, 2)})  # a pending point loads it (tuples as lists)
+    _artefact(cache, "vq", "bbb", {"steps": 20})  # only finished points used it
+    work = cache / "models" / "discord" / "laptop" / "ccc.work"
+    for step in (100, 200):
+        (work / f"step_{step:08d}").mkdir(parents=True)
+        (work / f"step_{step:08d}" / "model.safetensors").write_bytes(bytes([step % 256]) * 4)
+    (cache / "models" / "vq" / "laptop" / ".ddd.tmp-1234").mkdir()  # a half-written artefact
+    folders = carry.carried_folders(cache, [{"steps": 10, "shape": [1, 2]}])
+    assert [f.name for f in folders] == ["ccc.work", "aaa"]
+    assert carry.checkpoints_in_progress(cache) == {"ccc.work": 200}
+    assert carry.find_artefact(cache, {"steps": 20}).name == "bbb" and carry.find_artefact(cache, {"x": 1}) is None
+
+    out = tmp_path / "out"
+    parts, line = carry.pack_cache(cache, folders, out)
+    assert [p.name for p in parts] == ["scale-cache.tgz.00"] and line.startswith("carried 2 model folder(s) in 1 part")
+    fresh = tmp_path / "fresh"
+    _artefact(fresh, "rvq", "aaa", {"steps": 10}, size=3)  # already finished here: kept as it is
+    assert carry.unpack_cache(out, fresh) == ["models/discord/laptop/ccc.work"]
+    assert (fresh / "models" / "rvq" / "laptop" / "aaa" / "model.safetensors").read_bytes() == bytes(3)
+    assert sorted(p.name for p in (fresh / "models" / "discord" / "laptop" / "ccc.work").iterdir()) == ["step_00000200"]
+    assert carry.unpack_cache(tmp_path / "nothing", fresh) == []
+
+    monkeypatch.setattr(carry, "PART_BYTES", 64)  # an archive too large for the files a lease returns
+    parts, line = carry.pack_cache(cache, folders, out, max_parts=1)
+    assert parts == [] and "not carried" in line and not list(out.iterdir())  # the old parts are gone too
+    assert len(carry.pack_cache(cache, folders, out, max_parts=99)[0]) > 1  # cut into parts, joined on unpacking
+    assert carry.unpack_cache(out, tmp_path / "again") == ["models/discord/laptop/ccc.work", "models/rvq/laptop/aaa"]
+
+
+def test_a_run_carries_the_models_the_next_lease_loads(tmp_path):
+    """Two leases of the smoke pipeline on two bare machines (two empty homes): the first records one point and
+    carries out the tokenizer and evaluator the next point needs; the second carries them in and only loads them."""
+    out, carried = tmp_path / "records", tmp_path / "carried"
+    first = _run(
+        "--smoke", "--groups", "discord", "projection", "--multiples", "0.5", "--minutes", "0.001",
+        "--out", str(out), "--carry-out", str(carried), home=tmp_path / "first",
+    )  # fmt: skip
+    assert sorted(p.name for p in out.glob("*.json")) == ["discord-x0.5.json"]
+    packed = first.stdout.splitlines()[-1]  # the tokenizer, the evaluator, and the smoke decoder (its config is
+    assert packed.startswith("carried 3 model folder(s)")  # chapter 04's stacked one's at the smoke profile)
+    assert all(f"{family}/smoke/" in packed for family in ("rvq", "text_motion_evaluator", "discord"))
+    second = _run(
+        "--smoke", "--groups", "discord", "projection", "--multiples", "0.5",
+        "--out", str(out), "--carry-in", str(carried), home=tmp_path / "second",
+    )  # fmt: skip
+    assert "projection-x0.5: loading tokenizer/rvq" in second.stderr
+    record = json.loads((out / "projection-x0.5.json").read_text())
+    trained = {name: model["trained"] for name, model in record["models"].items()}
+    assert trained == {
+        "tokenizer/rvq": False,
+        "discord/rvq-stacked": False,
+        "discord/rvq-repeat": True,
+        "discord/rvq-transposed": True,
+    }

@@ -130,8 +130,9 @@ def measured_rates(records: list[dict], device_type: str, precision: str, run=No
             continue
         point = f"{record['group']}-x{record['multiple']:g}"
         for name, model in record["models"].items():
-            if model.get("trained") and model["steps"]:
-                steps[name, model["batch"]] = (1e3 * model["seconds"] / model["steps"], point)
+            timed = model["steps"] - model.get("resumed_from", 0)  # a resumed training timed its last steps only
+            if model.get("trained") and timed > 0:
+                steps[name, model["batch"]] = (1e3 * model["seconds"] / timed, point)
         scoring[record["group"]] = (record["seconds"]["scoring"], point)
     return Rates(precision, run, steps, scoring)
 
@@ -199,8 +200,13 @@ def train_point(point: Point, dataset, profile: str, device: str | None) -> dict
     """Train (or load from the cache) each model of ``point`` inside its scaled budget: ``{name: {"seconds": ...,
     "trained": ...}}`` (a model found in the cache was not trained here, so its seconds time no training)."""
     from motionlab import models
+    from motionlab.paths import cache_dir
+
+    from .carry import checkpoints_in_progress, find_artefact
 
     out = {}
+    configs = _configs(point, profile)
+    in_progress = checkpoints_in_progress(cache_dir())  # trainings a carried-in cache resumes
     with scaled_budgets(point.multiple, point.batch_factor, profile):
         for name in group_models(point.group):
             trained = not _cached(name, dataset, profile, device)
@@ -208,6 +214,9 @@ def train_point(point: Point, dataset, profile: str, device: str | None) -> dict
             start = time.perf_counter()
             models.load(name, dataset, profile, device=device)
             out[name] = {"seconds": round(time.perf_counter() - start, 2), "trained": trained}
+            folder = find_artefact(cache_dir(), configs[name]) if trained else None
+            if folder is not None and f"{folder.name}.work" in in_progress:
+                out[name]["resumed_from"] = in_progress[f"{folder.name}.work"]  # its seconds time the rest only
             _log(f"{point.key}: {name} ready in {out[name]['seconds']:.1f} s")
     return out
 

@@ -1,0 +1,139 @@
+"""Carry a study's trained models from one leased machine to the next, so that a point longer than one run resumes.
+
+A leased GPU starts bare and runs one command for at most ten minutes; what comes back is a few files of at most
+16 MiB each. A scale-study point whose training outlasts one command would start from nothing on every lease and
+never finish. So a run packs the part of its model cache the remaining points need into an archive cut into parts
+(:func:`pack_cache`), the parts come back with the run's outputs, and the next lease carries them in and unpacks
+them (:func:`unpack_cache`) before it starts: a finished model is loaded instead of trained, and a model cut off
+mid-way resumes from its last checkpoint (the trainer's ``.work`` folder).
+
+What is carried (:func:`carried_folders`): every finished model whose config a pending point trains or loads (the
+evaluator, a tokenizer two groups share, the models of a point cut off before its scoring), and the newest
+checkpoint of every training in progress. Models only finished points used stay behind.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import tarfile
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+ARCHIVE = "scale-cache.tgz"  # its parts: scale-cache.tgz.00, .01, ...
+PART_BYTES = 15 * 2**20  # under the 16 MiB a leased machine returns per file
+
+
+def _normalised(config: Any) -> str:
+    """A config as one comparable string (the artefact's config.json stores tuples as lists)."""
+    return json.dumps(json.loads(json.dumps(config, default=str)), sort_keys=True)
+
+
+def carried_folders(cache_root: str | Path, pending_configs: Iterable[dict]) -> list[Path]:
+    """The folders under ``cache_root/models`` the next run needs: finished artefacts whose config is one of
+    ``pending_configs`` (the JSON configs of the models the pending points train or load) and every training in
+    progress (``<hash>.work``)."""
+    wanted = {_normalised(c) for c in pending_configs}
+    folders = []
+    for folder in sorted((Path(cache_root) / "models").glob("*/*/*")):
+        if not folder.is_dir() or folder.name.startswith(".") or ".damaged-" in folder.name:
+            continue  # a half-written artefact, or one moved aside
+        if folder.name.endswith(".work"):
+            if _newest_checkpoint(folder) is not None:
+                folders.append(folder)
+            continue
+        info = folder / "config.json"
+        if info.is_file() and _normalised(json.loads(info.read_text()).get("config")) in wanted:
+            folders.append(folder)
+    return folders
+
+
+def find_artefact(cache_root: str | Path, config: Any) -> Path | None:
+    """The finished artefact folder under ``cache_root/models`` trained with ``config`` (a JSON config), or None."""
+    wanted = _normalised(config)
+    for info in sorted((Path(cache_root) / "models").glob("*/*/*/config.json")):
+        if not info.parent.name.startswith(".") and _normalised(json.loads(info.read_text()).get("config")) == wanted:
+            return info.parent
+    return None
+
+
+def checkpoints_in_progress(cache_root: str | Path) -> dict[str, int]:
+    """``{"<hash>.work": step}``: the newest checkpoint's step of every training in progress under ``cache_root``."""
+    found = {}
+    for work in (Path(cache_root) / "models").glob("*/*/*.work"):
+        newest = _newest_checkpoint(work)
+        if newest is not None:
+            found[work.name] = int(newest.name.removeprefix("step_"))
+    return found
+
+
+def _newest_checkpoint(work: Path) -> Path | None:
+    steps = sorted(p for p in work.glob("step_*") if p.is_dir())
+    return steps[-1] if steps else None
+
+
+def pack_cache(
+    cache_root: str | Path, folders: Iterable[Path], out_dir: str | Path, max_parts: int = 4
+) -> tuple[list[Path], str]:
+    """Write ``folders`` (under ``cache_root``; of a ``.work`` folder only its newest checkpoint) to ``out_dir`` as
+    :data:`ARCHIVE` parts of at most :data:`PART_BYTES`, replacing any parts there. Returns the parts and one line
+    for the log; writes nothing (and says why) where the archive would need more than ``max_parts`` parts."""
+    cache_root, out_dir = Path(cache_root), Path(out_dir)
+    folders = list(folders)
+    for old in out_dir.glob(f"{ARCHIVE}.*"):
+        old.unlink()
+    if not folders:
+        return [], "nothing to carry: every remaining point starts from scratch"
+    buffer = io.BytesIO()
+    with tarfile.open(fileobj=buffer, mode="w:gz") as archive:
+        for folder in folders:
+            source = _newest_checkpoint(folder) if folder.name.endswith(".work") else folder
+            archive.add(source, arcname=str(source.relative_to(cache_root)))
+    data = buffer.getvalue()
+    parts = -(-len(data) // PART_BYTES)
+    mib = len(data) / 2**20
+    if parts > max_parts:
+        return [], f"not carried: {len(folders)} model folder(s) make {mib:.1f} MiB, over {max_parts} parts"
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written = []
+    for k in range(parts):
+        path = out_dir / f"{ARCHIVE}.{k:02d}"
+        path.write_bytes(data[k * PART_BYTES : (k + 1) * PART_BYTES])
+        written.append(path)
+    names = ", ".join(str(f.relative_to(cache_root / "models")) for f in folders)
+    return written, f"carried {len(folders)} model folder(s) in {parts} part(s), {mib:.1f} MiB: {names}"
+
+
+def unpack_cache(in_dir: str | Path, cache_root: str | Path) -> list[str]:
+    """Unpack the :data:`ARCHIVE` parts in ``in_dir`` into ``cache_root``; returns the top folders unpacked ([] where
+    there are no parts). A finished artefact already in the cache is kept as it is."""
+    parts = sorted(Path(in_dir).glob(f"{ARCHIVE}.[0-9][0-9]"))
+    if not parts:
+        return []
+    cache_root = Path(cache_root)
+    data = b"".join(p.read_bytes() for p in parts)
+    unpacked = set()
+    with tarfile.open(fileobj=io.BytesIO(data), mode="r:gz") as archive:
+        members = []
+        for member in archive.getmembers():
+            top = Path(*Path(member.name).parts[:4])  # models/<name>/<profile>/<hash>[.work]
+            if top.parts[0] != "models" or len(top.parts) < 4:
+                raise ValueError(f"{parts[0].name}: {member.name} is not a model folder")
+            if not top.name.endswith(".work") and (cache_root / top / "model.safetensors").is_file():
+                continue
+            members.append(member)
+            unpacked.add(str(top))
+        archive.extractall(cache_root, members=members, filter="data")
+    return sorted(unpacked)
+
+
+__all__ = [
+    "ARCHIVE",
+    "PART_BYTES",
+    "carried_folders",
+    "checkpoints_in_progress",
+    "find_artefact",
+    "pack_cache",
+    "unpack_cache",
+]
