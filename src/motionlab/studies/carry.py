@@ -84,7 +84,7 @@ def pack_cache(
     for old in out_dir.glob(f"{ARCHIVE}.*"):
         old.unlink()
     if not folders:
-        return [], "nothing to carry: every remaining point starts from scratch"
+        return [], "nothing to carry: no model the remaining points need is in the cache"
     buffer = io.BytesIO()
     with tarfile.open(fileobj=buffer, mode="w:gz") as archive:
         for folder in folders:
