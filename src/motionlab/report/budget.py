@@ -237,7 +237,7 @@ def plot_budget(
     axes = panel_axes(len(panels), axes, figsize=figsize)
     for ax, (title, keys) in zip(axes, panels.items()):
         curves = budget_curves(study, keys)
-        scaled_steps = set()
+        multiples = set()  # of the scale study's points drawn in this panel
         for i, (key, points) in enumerate(curves.items()):
             dodge = 1.0 + 0.04 * (i - (len(curves) - 1) / 2)  # side by side on the log axis, so the bars do not hide
             steps = [n * dodge for n, _ in points]
@@ -245,10 +245,9 @@ def plot_budget(
             line = ax.errorbar(steps, means, yerr=halves, marker="o", ms=3, capsize=2, label=quantity(key)[1] or key)
             scaled = scale_points(scale, key) if scale is not None and key not in MODEL_FREE else []
             if scaled:
-                at = [m * study.laptop_steps for m, _ in scaled]
-                scaled_steps.update(at)
+                multiples.update(m for m, _ in scaled)
                 ax.errorbar(
-                    [n * dodge * 1.06 for n in at],  # beside a budget point at the same samples
+                    [m * study.laptop_steps * dodge * 1.06 for m, _ in scaled],  # beside a budget point there
                     [e.mean for _, e in scaled],
                     yerr=[e.half_width for _, e in scaled],
                     color=line.lines[0].get_color(),
@@ -257,14 +256,14 @@ def plot_budget(
         ax.axvline(study.laptop_steps, color="gray", ls="--", lw=1)
         ax.set_xscale("log")
         mixed = study.mixed_precision  # then each budget says what it was trained in
-        ticks = {n: f"{n:,}\n{study.precision(n)}" if mixed else f"{n:,}" for n in study.budgets}
-        ticks |= {n: f"{n:,.0f}" for n in scaled_steps if n not in ticks}
+        ticks = {m * study.laptop_steps: f"{m * study.laptop_steps:,.0f}" for m in multiples}
+        ticks |= {n: f"{n:,}\n{study.precision(n)}" if mixed else f"{n:,}" for n in study.budgets}  # a budget's wins
         ax.set_xticks(sorted(ticks), [ticks[n] for n in sorted(ticks)])
         ax.minorticks_off()
         handles, _ = ax.get_legend_handles_labels()
-        if scaled_steps:
+        if multiples:
             ax.set_xlabel("steps at the laptop's batch (dashed: its budget)")  # samples ÷ that batch
-            where = " / ".join(sorted({scale.where(n / study.laptop_steps) for n in scaled_steps}))
+            where = " / ".join(sorted({scale.where(m) for m in multiples}))
             proxy = {k: v for k, v in SCALE_MARKER.items() if k != "capsize"}
             handles.append(Line2D([], [], color="gray", label=f"scale study ({where})", **proxy))
         else:

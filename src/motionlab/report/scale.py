@@ -276,7 +276,7 @@ def scale_changes(table, study: ScaleStudy | None, chapter: str, claims=None) ->
     machines = sorted({w for s in judged.values() for w in s.where.values()})
     samples = f"{profile_text(study.profile)} training samples"
     at = f"At {', '.join(multiple_text(m) for m in multiples)} {samples} ({' / '.join(machines)})"
-    changed = [c for c, scaled in judged.items() if any(v != rows[c].verdict for v in scaled.verdicts.values())]
+    changed = [c for c, s in judged.items() if any(v != rows[c].verdict for v in s.verdicts.values())]
     if not changed:
         return Sentence(f"{at}, no verdict of this chapter changes ({len(judged)} claim(s) judged).")
 
@@ -329,7 +329,7 @@ def plot_scale(
                 here = this_build[key].estimate
                 color = line.lines[0].get_color()
                 ax.errorbar([1.0], [here.mean], yerr=[here.half_width], marker="o", ms=3, capsize=2, color=color)
-        multiples = [1.0, *study.multiples] if this_build is not None else study.multiples
+        multiples = sorted({1.0, *study.multiples}) if this_build is not None else study.multiples
         ax.set_xscale("log")
         ax.set_xticks(multiples, [multiple_text(m) for m in multiples])
         ax.minorticks_off()
