@@ -5,6 +5,10 @@
   // to _static/widgets/, where tools/vendor_web_assets.py copies the bundle and its fonts.
   var here = document.currentScript.src.replace(/[^/]*$/, "");
   require.config({paths: {"@jupyter-widgets/html-manager/dist": here + "widgets"}});
+  // The bundle takes its public path from the URL require.js gives its anonymous module, which depends on which
+  // widget module is asked for first: now and then notebooks/@jupyter-widgets/, and a checkbox's icon font was
+  // missing (s5, once in eight loads). It reads this override first, so the fonts come from one place.
+  window.__jupyter_widgets_assets_path__ = here + "widgets/";
 
   // ipywidgets typesets widget labels with MathJax 2's MathJax.Hub.Queue; the book loads MathJax 3, which has no Hub.
   // A Hub that forwards to MathJax 3, installed before the widgets render (they render on the page's load event).
