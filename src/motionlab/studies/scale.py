@@ -198,7 +198,8 @@ def plan_lines(points: list[Point], profile: str, rates: Rates, done=(), minutes
 # ------------------------------------------------------------------------------------------- train and score
 def train_point(point: Point, dataset, profile: str, device: str | None) -> dict[str, dict[str, Any]]:
     """Train (or load from the cache) each model of ``point`` inside its scaled budget: ``{name: {"seconds": ...,
-    "trained": ...}}`` (a model found in the cache was not trained here, so its seconds time no training)."""
+    "trained": ...}}`` (a model found in the cache was not trained here, so its seconds time no training), with
+    ``"resumed_from": step`` where the training resumed a checkpoint carried in from an earlier run."""
     from motionlab import models
     from motionlab.paths import cache_dir
 
