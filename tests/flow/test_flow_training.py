@@ -132,3 +132,36 @@ def test_a_narrow_unet_cannot_beat_the_noise_floor_at_t0(dataset, tokenizer):
     assert at1 > 0.95  # at t = 1 the input is x1 alone: the x0 in the target (variance 1) is unpredictable
     with pytest.raises(ValueError, match="t must"):
         loss_at_time(model, motion, codes, 1.5, torch.Generator())
+
+
+def test_an_interrupted_decoder_training_resumes_bit_identically(dataset, tokenizer, tmp_path, monkeypatch):
+    """Ctrl-C (or a lease's end) mid-training leaves a checkpoint every tenth of the steps; a new trainer on the same
+    folder resumes from the newest and ends where an uninterrupted run ends."""
+    monkeypatch.setenv("MOTIONLAB_DETERMINISTIC", "1")  # on a GPU, bit-identical needs deterministic kernels
+    config = tiny_config(tokenizer, train_steps=20, warmup_steps=2)
+    clips = dataset.normalized("train")
+
+    def trainer(workdir=None):
+        model = DisCoRDDecoder(config)
+        return flow_training.discord_trainer(model, tokenizer, clips, workdir=workdir, device="cpu", progress=False)
+
+    straight = trainer()
+    straight.fit()
+    interrupted = trainer(tmp_path)
+    assert interrupted.config.ckpt_every == 2
+    step = interrupted.train_step
+
+    def stop_at_step_7():
+        if interrupted.step == 7:
+            raise KeyboardInterrupt
+        return step()
+
+    interrupted.train_step = stop_at_step_7
+    with pytest.raises(KeyboardInterrupt):
+        interrupted.fit()
+    resumed = trainer(tmp_path)
+    assert resumed.step == 6  # the newest checkpoint before the interruption
+    resumed.fit()
+    for name, value in straight.model.state_dict().items():
+        assert torch.equal(value, resumed.model.state_dict()[name]), name
+    assert resumed.history == straight.history
