@@ -71,7 +71,7 @@ def add_subcommands(subparsers: Any) -> argparse.ArgumentParser:
         help="released checkpoints (MoMask RVQ, T2M-GPT VQ, DisCoRD decoder): check a folder, convert it",
         description="Read the checkpoints the papers released, in their released layouts (nothing is downloaded).",
         epilog="examples:\n"
-        "  motionlab pretrained check DisCoRD/checkpoints/Momask                      # layout, contents, loads?\n"
+        "  motionlab pretrained check DisCoRD/checkpoints/Momask                         # layout, contents, loads?\n"
         "  motionlab pretrained convert DisCoRD/checkpoints/Momask --out discord-momask  # safetensors + JSON",
     )
     sub = parser.add_subparsers(dest="pretrained_command", required=True)
@@ -83,7 +83,7 @@ def add_subcommands(subparsers: Any) -> argparse.ArgumentParser:
         description="Say which released layout a folder or file is, what it holds and lacks, and whether it loads "
         "(exit 0 if it does, 1 if not).",
         epilog="examples:\n"
-        "  motionlab pretrained check DisCoRD/checkpoints/Momask           # a DisCoRD decoder folder\n"
+        "  motionlab pretrained check DisCoRD/checkpoints/Momask                           # a DisCoRD decoder folder\n"
         "  motionlab pretrained check pretrained/VQVAE/net_last.pth --meta pretrained/meta  # T2M-GPT's VQ-VAE",
     )
     check_parser.add_argument(
@@ -98,8 +98,8 @@ def add_subcommands(subparsers: Any) -> argparse.ArgumentParser:
         description="Write a released checkpoint as model.safetensors + config.json + meta/, which motionlab "
         "loads without unpickling anything (auto:FOLDER in other commands).",
         epilog="examples:\n"
-        "  motionlab pretrained convert DisCoRD/checkpoints/Momask --out discord-momask  # decoder + its tokenizer\n"
-        "  motionlab pretrained convert momask/rvq_nq6_dc512_nc512_noshare_qdp0.2 --out momask-rvq  # MoMask RVQ",
+        "  motionlab pretrained convert DisCoRD/checkpoints/Momask --out discord-momask          # and its tokenizer\n"
+        "  motionlab pretrained convert t2m/rvq_nq6_dc512_nc512_noshare_qdp0.2 --out momask-rvq  # a MoMask RVQ",
     )
     convert_parser.add_argument("folder", type=Path, help="what to convert (any layout `pretrained check` knows)")
     convert_parser.add_argument("--out", type=Path, required=True, help="the folder to write (must be new or empty)")
