@@ -69,13 +69,12 @@ def load_budget(profile: str, folder: str | Path | None = None) -> BudgetStudy |
     ``book/data/m2d2m_budget/embedded-v<N>`` of the current embedded data unless ``folder`` is given."""
     from motionlab.sizes import DENOISER
 
-    if folder is None:
-        from .spread import embedded_data_folder
+    from .spread import study_folder
 
-        folder = embedded_data_folder(FOLDER)
-        if folder is None:
-            return None
-    found, set_aside = read_records(Path(folder), profile)
+    folder = study_folder(FOLDER, folder)
+    if folder is None:
+        return None
+    found, set_aside = read_records(folder, profile)
     records = {(r["arm"], int(r["training_seed"]), int(r["steps"])): r for r in found}
     if not records:
         return None
@@ -225,12 +224,10 @@ def plot_budget(
     the key's colour, at its multiple of the laptop's training samples divided by the laptop's batch (the budget
     study keeps that batch, so both count samples on one axis; the scale study also scales the tokenizer).
     """
-    from matplotlib.lines import Line2D
-
     from motionlab.viz.plots import panel_axes  # only when drawn: the claims table must not pay for pyplot
 
     from .quantities import quantity
-    from .scale import SCALE_MARKER, scale_points
+    from .scale import SCALE_MARKER, scale_legend_handle, scale_points
 
     if not panels:
         raise ValueError("need at least one panel")
@@ -263,9 +260,7 @@ def plot_budget(
         handles, _ = ax.get_legend_handles_labels()
         if multiples:
             ax.set_xlabel("steps at the laptop's batch (dashed: its budget)")  # samples ÷ that batch
-            where = " / ".join(sorted({scale.where(m) for m in multiples}))
-            proxy = {k: v for k, v in SCALE_MARKER.items() if k != "capsize"}
-            handles.append(Line2D([], [], color="gray", label=f"scale study ({where})", **proxy))
+            handles.append(scale_legend_handle(" / ".join(sorted({scale.where(m) for m in multiples}))))
         else:
             ax.set_xlabel("training steps (dashed: the laptop's)")
         ax.set_title(title, fontsize=9)
@@ -312,11 +307,10 @@ def load_eta_axis(profile: str, folder: str | Path | None = None, budget: Budget
     records (default: the recorded budget study) where they are not in the folder."""
     from motionlab.diffusion.training import PAPER_ETA
 
-    if folder is None:
-        from .spread import embedded_data_folder
+    from .spread import study_folder
 
-        folder = embedded_data_folder(ETA_FOLDER)
-    found, set_aside = read_records(Path(folder), profile) if folder is not None else ([], [])
+    folder = study_folder(ETA_FOLDER, folder)
+    found, set_aside = read_records(folder, profile) if folder is not None else ([], [])
     records = {float(record["eta"]): record for record in found}
     if not records:
         return None

@@ -101,14 +101,10 @@ def _record_results(record: dict, profile: str) -> dict[str, Result]:
 def load_scale_study(profile: str, folder: str | Path | None = None) -> ScaleStudy | None:
     """The scale study recorded for ``profile`` (None where none was): the repository's
     ``book/data/scale/embedded-v<N>`` of the current embedded data unless ``folder`` is given."""
-    if folder is None:
-        from .spread import embedded_data_folder
+    from .spread import study_folder
 
-        folder = embedded_data_folder(FOLDER)
-        if folder is None:
-            return None
-    folder = Path(folder)
-    if not folder.is_dir():
+    folder = study_folder(FOLDER, folder)
+    if folder is None or not folder.is_dir():
         return None
     found, set_aside = read_scale_records(folder, profile)
     records = {(r["group"], float(r["multiple"])): r for r in found}
@@ -296,6 +292,14 @@ def scale_points(study: ScaleStudy, key: str) -> list[tuple[float, Estimate]]:
 SCALE_MARKER = {"marker": "D", "mfc": "none", "ms": 4, "ls": "none", "capsize": 2}  # the scale study's points
 
 
+def scale_legend_handle(where: str):
+    """The legend entry for the scale study's points: a grey hollow diamond, ``scale study (<where>)``."""
+    from matplotlib.lines import Line2D
+
+    marker = {k: v for k, v in SCALE_MARKER.items() if k != "capsize"}  # a legend line has no error bars
+    return Line2D([], [], color="gray", label=f"scale study ({where})", **marker)
+
+
 def plot_scale(
     study: ScaleStudy, panels: Mapping[str, Sequence[str]], *, this_build=None, axes=None, figsize=(7.4, 2.4)
 ):
@@ -336,8 +340,7 @@ def plot_scale(
         ax.set_xlabel(f"training samples (× {profile_text(study.profile)})")
         ax.set_title(title, fontsize=9)
         handles, _ = ax.get_legend_handles_labels()
-        marker = {k: v for k, v in SCALE_MARKER.items() if k != "capsize"}
-        handles.append(Line2D([], [], color="gray", label=f"scale study ({study.where_all()})", **marker))
+        handles.append(scale_legend_handle(study.where_all()))
         if this_build is not None:
             handles.append(Line2D([], [], color="gray", marker="o", ms=3, ls="none", label="this build"))
         ax.legend(handles=handles, fontsize=7, framealpha=0.8)
@@ -350,6 +353,7 @@ __all__ = [
     "chapter_claims",
     "plot_scale",
     "scale_changes",
+    "scale_legend_handle",
     "scale_points",
     "ScaleStudy",
     "StudyScale",

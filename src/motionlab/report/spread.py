@@ -114,6 +114,12 @@ def embedded_data_folder(parts: Sequence[str]) -> Path | None:
     return None if root is None else root / f"embedded-v{VERSION}"
 
 
+def study_folder(parts: Sequence[str], folder: str | Path | None = None) -> Path | None:
+    """Where a study's records are read from: ``folder`` where given, else :func:`embedded_data_folder` of ``parts``
+    (None outside the repository)."""
+    return Path(folder) if folder is not None else embedded_data_folder(parts)
+
+
 def read_spread(files: Iterable[Path], profile: str) -> TrainingSpread | None:
     """The spread in ``files`` (the study's ``<study>-<profile>-<precision>-seed<k>.json``) for ``profile``; None if
     none match.
@@ -170,11 +176,10 @@ def load_spread(profile: str, folder: str | Path | None = None, data: str | None
 
     ``folder`` defaults to the repository's ``book/data/training_seeds/embedded-v<N>`` of the current embedded data.
     """
+    folder = study_folder(FOLDER, folder)
     if folder is None:
-        folder = embedded_data_folder(FOLDER)
-        if folder is None:
-            return None
-    spread = read_spread(Path(folder).glob("*.json"), profile)
+        return None
+    spread = read_spread(folder.glob("*.json"), profile)
     if spread is None or (data is not None and spread.data != data):
         return None
     if not spread.measured:  # every run measured other models: as if none were recorded, said once
