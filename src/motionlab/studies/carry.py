@@ -35,27 +35,23 @@ def carried_folders(cache_root: str | Path, pending_configs: Iterable[dict]) -> 
     ``pending_configs`` (the JSON configs of the models the pending points train or load) and every training in
     progress (``<hash>.work``)."""
     wanted = {_normalised(c) for c in pending_configs}
-    folders = []
-    for folder in sorted((Path(cache_root) / "models").glob("*/*/*")):
-        if not folder.is_dir() or folder.name.startswith(".") or ".damaged-" in folder.name:
-            continue  # a half-written artefact, or one moved aside
-        if folder.name.endswith(".work"):
-            if _newest_checkpoint(folder) is not None:
-                folders.append(folder)
-            continue
-        info = folder / "config.json"
-        if info.is_file() and _normalised(json.loads(info.read_text()).get("config")) in wanted:
-            folders.append(folder)
-    return folders
+    in_progress = [w for w in sorted((Path(cache_root) / "models").glob("*/*/*.work")) if _newest_checkpoint(w)]
+    return sorted(in_progress + [folder for folder, config in _finished(cache_root) if config in wanted])
 
 
 def find_artefact(cache_root: str | Path, config: Any) -> Path | None:
     """The finished artefact folder under ``cache_root/models`` trained with ``config`` (a JSON config), or None."""
     wanted = _normalised(config)
+    return next((folder for folder, found in _finished(cache_root) if found == wanted), None)
+
+
+def _finished(cache_root: str | Path):
+    """``(folder, normalised config)`` of every finished artefact under ``cache_root/models``: not a training in
+    progress (``.work``), a half-written one (``.<hash>.tmp-…``) or one moved aside (``.damaged-…``)."""
     for info in sorted((Path(cache_root) / "models").glob("*/*/*/config.json")):
-        if not info.parent.name.startswith(".") and _normalised(json.loads(info.read_text()).get("config")) == wanted:
-            return info.parent
-    return None
+        name = info.parent.name
+        if not (name.startswith(".") or name.endswith(".work") or ".damaged-" in name):
+            yield info.parent, _normalised(json.loads(info.read_text()).get("config"))
 
 
 def checkpoints_in_progress(cache_root: str | Path) -> dict[str, int]:
