@@ -28,7 +28,7 @@ Every subcommand has its own --help. The book (make book, then _build/html/index
 explains each model and table; its chapter 98 covers the papers' sizes, real datasets and released checkpoints."""
 
 
-def _examples(*lines: tuple[str, str]) -> str:
+def examples_epilog(*lines: tuple[str, str]) -> str:
     """A subcommand's ``examples:`` epilog: one ``motionlab ...`` command per line, its comment aligned after it."""
     width = max(len(command) for command, _ in lines)
     return "examples:\n" + "\n".join(f"  motionlab {command:<{width}}  # {comment}" for command, comment in lines)
@@ -646,7 +646,7 @@ def _add_evaluate(sub) -> None:
         help="the papers' tables with 95%% CIs: reconstruction, t2m, multi",
         description="Evaluate the book's cached models (trained on first use) and print a "
         "paper-style Markdown table, mean ± 95% half-width per cell.",
-        epilog=_examples(
+        epilog=examples_epilog(
             ("evaluate reconstruction --decoder discord", "DisCoRD Table 1: feed-forward vs DisCoRD rows"),
             ("evaluate t2m --guidance-scales 0,4", "M2D2M Table 3's metrics, one row per guidance scale"),
             ("evaluate multi --methods tps,independent", "M2D2M's multi-motion table"),
@@ -659,7 +659,7 @@ def _add_evaluate(sub) -> None:
         help="DisCoRD Table 1: tokens -> decoded motion",
         description="Ground truth -> tokens -> decoded motion: FID, MPJPE, sJPE, Noise and "
         "Static sJPE. The feed-forward decoder is deterministic (one run).",
-        epilog=_examples(
+        epilog=examples_epilog(
             ("evaluate reconstruction --decoder discord --json table1.json", "DisCoRD Table 1, also as JSON"),
             ("evaluate reconstruction --grid euler:1,midpoint:15 --timing-repeats 5", "Table E: steps, solvers, time"),
             ("evaluate reconstruction --decoder vq --jerk", "the VQ tokenizer's own decoder, with mean jerk"),
@@ -749,7 +749,7 @@ def _add_evaluate(sub) -> None:
         description="The text-to-motion protocol: R-precision top 1-3, FID, MM-Dist, "
         "Diversity (+ MultiModality) of the diffusion model and of the real "
         "motions.",
-        epilog=_examples(
+        epilog=examples_epilog(
             ("evaluate t2m --models t2m/uniform,t2m/dynamic", "uniform vs dynamic transitions (chapter 08)"),
             ("evaluate t2m --guidance-scales 0,1,2,4", "one row per classifier-free guidance scale"),
             ("evaluate t2m --multimodality --mm-texts 10 --repeats 2", "MultiModality too, a quick look"),
@@ -796,7 +796,7 @@ def _add_evaluate(sub) -> None:
         help="M2D2M multi-motion: TPS vs baselines",
         description="Multi-action instances from the split's single-action clips; "
         "per-action and transition metrics (FID, Diversity, Jerk).",
-        epilog=_examples(
+        epilog=examples_epilog(
             ("evaluate multi --methods tps,independent --segment-jerk", "TPS vs independent sampling"),
             ("evaluate multi --methods tps:T_s=50,slerp:transition=40,handshake", "a switch step and two baselines"),
             ("evaluate multi --model t2m/multi-eta0.25 --actions 2", "M2D2M's multi-motion model, two actions"),
@@ -897,7 +897,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="datasets: generate the embedded one, check a folder, convert BVH takes",
         description="The datasets the models train on: the embedded procedural one (made on first use), a "
         "HumanML3D/KIT-ML folder, or your own BVH takes converted to that layout.",
-        epilog=_examples(
+        epilog=examples_epilog(
             ("data check ~/data/HumanML3D", "is a downloaded dataset complete?"),
             ("data make-embedded --profile smoke --out embedded-smoke", "the embedded dataset, into a folder"),
             ("data from-bvh takes/ --out my-mocap", "your mocap; then: motionlab train vq --data my-mocap"),
@@ -910,7 +910,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="validate a HumanML3D/KIT-ML folder and list what is missing",
         description="Validate a HumanML3D/KIT-ML folder: list what is missing or malformed (exit 1), or say it is "
         "complete (exit 0).",
-        epilog=_examples(("data check ~/data/HumanML3D", "new_joint_vecs/, texts/, the splits, Mean.npy, ...")),
+        epilog=examples_epilog(("data check ~/data/HumanML3D", "new_joint_vecs/, texts/, the splits, Mean.npy, ...")),
     )
     check.add_argument("path", type=Path, help="the dataset folder (new_joint_vecs/, texts/, train.txt, Mean.npy, ...)")
     check.set_defaults(func=_data_check)
@@ -920,7 +920,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="generate the embedded procedural dataset",
         description="Generate the embedded procedural dataset (HumanML3D layout, t2m skeleton) into the cache, or "
         "into --out. Training does this on first use; the same seed gives the same clips.",
-        epilog=_examples(
+        epilog=examples_epilog(
             ("data make-embedded", "the laptop profile's dataset, into the cache"),
             ("data make-embedded --profile smoke --out embedded-smoke", "a small one, into a folder to look at"),
         ),
@@ -944,7 +944,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Your own mocap as a dataset the book trains on (train ... --data DATASET): every .bvh in "
         "FOLDER becomes new_joints, new_joint_vecs and texts; then splits and Mean/Std. A re-run "
         "converts only new or changed takes. Skipped takes are listed with the reason.",
-        epilog=_examples(
+        epilog=examples_epilog(
             ("data from-bvh takes/ --out my-mocap", "captions from the file names, CMU joint names"),
             ("data from-bvh takes/ --out my-mocap --captions captions.csv --mapping t2m", "your captions and crops"),
         ),
@@ -973,7 +973,7 @@ def build_parser() -> argparse.ArgumentParser:
         "tokens (DisCoRD Table 1, `evaluate reconstruction`); `generate`/`evaluate t2m|multi "
         "--decoder discord` use a second DisCoRD decoder, of the diffusion model's VQ tokens: "
         "`train discord --tokenizer vq` trains that one.",
-        epilog=_examples(
+        epilog=examples_epilog(
             ("train rvq --profile smoke", "the RVQ tokenizer, in seconds"),
             ("train discord --tokenizer vq", "the DisCoRD decoder that generate --decoder discord uses"),
             ("train book --jobs 2", "every model the chapters load, two at a time"),
@@ -1020,7 +1020,7 @@ def build_parser() -> argparse.ArgumentParser:
         "book",
         help="build steps of the book (run in its repository); `make book` calls them",
         description="The steps `make book` runs after `motionlab train book`, run in the book's repository.",
-        epilog=_examples(
+        epilog=examples_epilog(
             ("book execute --profile smoke", "every chapter at the smoke profile, then the site's sources")
         ),
     )
@@ -1031,7 +1031,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Execute every chapter of book/_toc.yml into _build/executed/<profile>/notebooks, several at a "
         "time, each in its own kernel; then stage _build/site-src, which Jupyter Book renders without "
         "executing the chapters again. Run `motionlab train book` first so the chapters only load models.",
-        epilog=_examples(
+        epilog=examples_epilog(
             ("book execute --profile smoke --jobs 2", "every chapter at the smoke profile, two at a time"),
             ("book execute --chapters 05_discord --force", "one chapter again, even if nothing changed"),
         ),
@@ -1074,7 +1074,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="text to motion; several texts make one multi-action motion (TPS)",
         description="Generate a motion from text with the book's discrete-diffusion model (trained on first use). "
         "Several texts are generated jointly with Two-Phase Sampling.",
-        epilog=_examples(
+        epilog=examples_epilog(
             ('generate "a person waves" --profile smoke --out wave.html', "seconds; then open wave.html"),
             ('generate "a person walks" "a person jumps" --length 80 --out two.html', "two actions, one motion"),
             ('generate "a person waves" --decoder discord --out wave.bvh', "DisCoRD-decoded, for Blender"),
@@ -1123,7 +1123,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="convert motion between .bvh, .npy (HumanML3D features) and .html",
         description="Mocap (BVH) becomes HumanML3D features on the t2m skeleton at 20 fps; "
         "features or joints become BVH or a standalone HTML animation.",
-        epilog=_examples(
+        epilog=examples_epilog(
             ("convert take.bvh take.html", "look at a take in the browser"),
             ("convert take.bvh take.npy --start 40 --end 200", "frames 40-199 as HumanML3D features"),
             ("convert wave.npy wave.bvh", "features to BVH with the t2m skeleton's bones"),
@@ -1144,7 +1144,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_evaluate(sub)
     from .pretrained import add_subcommands
 
-    add_subcommands(sub)  # `pretrained check FOLDER`, `pretrained convert FOLDER --out DIR`
+    add_subcommands(sub, examples_epilog)  # `pretrained check FOLDER`, `pretrained convert FOLDER --out DIR`
     return parser
 
 

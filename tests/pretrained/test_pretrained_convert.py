@@ -10,6 +10,7 @@ import pytest
 import torch
 from released_layouts import write_discord, write_momask, write_t2mgpt
 
+from motionlab.cli import examples_epilog
 from motionlab.pretrained import (
     CheckpointError,
     add_subcommands,
@@ -126,7 +127,7 @@ def test_convert_refuses_a_non_empty_out_and_damaged_safetensors(tmp_path):
 
 def test_cli_subcommands(tmp_path, capsys):
     parser = argparse.ArgumentParser(prog="motionlab")
-    add_subcommands(parser.add_subparsers(dest="command", required=True))
+    add_subcommands(parser.add_subparsers(dest="command", required=True), examples_epilog)
     released = write_momask(tmp_path / "rvq")
     args = parser.parse_args(["pretrained", "check", str(released.folder)])
     assert args.func(args) == 0 and "loads: yes" in capsys.readouterr().out

@@ -15,6 +15,7 @@ Model specs (paths may not contain commas)::
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -63,16 +64,18 @@ def _convert(args: argparse.Namespace) -> int:
     return 0
 
 
-def add_subcommands(subparsers: Any) -> argparse.ArgumentParser:
+def add_subcommands(subparsers: Any, examples_epilog: Callable[..., str]) -> argparse.ArgumentParser:
     """Register ``pretrained check FOLDER`` and ``pretrained convert FOLDER --out DIR`` on an argparse
-    subparsers object; each sets ``func`` (``args -> exit code``). Returns the ``pretrained`` parser."""
+    subparsers object; each sets ``func`` (``args -> exit code``). ``examples_epilog`` is the command line's
+    format of a subcommand's examples (:func:`motionlab.cli.examples_epilog`). Returns the ``pretrained`` parser."""
     parser = subparsers.add_parser(
         "pretrained",
         help="released checkpoints (MoMask RVQ, T2M-GPT VQ, DisCoRD decoder): check a folder, convert it",
         description="Read the checkpoints the papers released, in their released layouts (nothing is downloaded).",
-        epilog="examples:\n"
-        "  motionlab pretrained check DisCoRD/checkpoints/Momask                         # layout, contents, loads?\n"
-        "  motionlab pretrained convert DisCoRD/checkpoints/Momask --out discord-momask  # safetensors + JSON",
+        epilog=examples_epilog(
+            ("pretrained check DisCoRD/checkpoints/Momask", "layout, contents, loads?"),
+            ("pretrained convert DisCoRD/checkpoints/Momask --out discord-momask", "safetensors + JSON"),
+        ),
     )
     sub = parser.add_subparsers(dest="pretrained_command", required=True)
     meta_help = "T2M-GPT only: the folder with mean.npy, std.npy (default: meta/ beside the checkpoint)"
@@ -82,9 +85,10 @@ def add_subcommands(subparsers: Any) -> argparse.ArgumentParser:
         help="say which layout a folder is, what it holds and lacks, and whether it loads",
         description="Say which released layout a folder or file is, what it holds and lacks, and whether it loads "
         "(exit 0 if it does, 1 if not).",
-        epilog="examples:\n"
-        "  motionlab pretrained check DisCoRD/checkpoints/Momask                           # a DisCoRD decoder folder\n"
-        "  motionlab pretrained check pretrained/VQVAE/net_last.pth --meta pretrained/meta  # T2M-GPT's VQ-VAE",
+        epilog=examples_epilog(
+            ("pretrained check DisCoRD/checkpoints/Momask", "a DisCoRD decoder folder"),
+            ("pretrained check pretrained/VQVAE/net_last.pth --meta pretrained/meta", "T2M-GPT's VQ-VAE"),
+        ),
     )
     check_parser.add_argument(
         "folder", type=Path, help="a MoMask / DisCoRD folder, a T2M-GPT .pth, or a converted folder"
@@ -97,9 +101,10 @@ def add_subcommands(subparsers: Any) -> argparse.ArgumentParser:
         help="write a checkpoint as model.safetensors + config.json + meta/ (loads without pickle)",
         description="Write a released checkpoint as model.safetensors + config.json + meta/, which motionlab "
         "loads without unpickling anything (auto:FOLDER in other commands).",
-        epilog="examples:\n"
-        "  motionlab pretrained convert DisCoRD/checkpoints/Momask --out discord-momask          # and its tokenizer\n"
-        "  motionlab pretrained convert t2m/rvq_nq6_dc512_nc512_noshare_qdp0.2 --out momask-rvq  # a MoMask RVQ",
+        epilog=examples_epilog(
+            ("pretrained convert DisCoRD/checkpoints/Momask --out discord-momask", "and its tokenizer"),
+            ("pretrained convert t2m/rvq_nq6_dc512_nc512_noshare_qdp0.2 --out momask-rvq", "a MoMask RVQ"),
+        ),
     )
     convert_parser.add_argument("folder", type=Path, help="what to convert (any layout `pretrained check` knows)")
     convert_parser.add_argument("--out", type=Path, required=True, help="the folder to write (must be new or empty)")
