@@ -58,6 +58,31 @@ def test_quantize_dropout_keeps_a_prefix_and_marks_the_rest():
     assert torch.all(rvq.eval()(z).ids >= 0)  # never at eval
 
 
+def rule_draw(generator, p, num_layers):
+    """The layer-dropout rule as written: the depth is drawn only when a layer is dropped."""
+    if torch.rand((), generator=generator) < p:
+        return int(torch.randint(1, num_layers + 1, (), generator=generator))
+    return num_layers
+
+
+@pytest.mark.parametrize("p", [0.2, 0.5, 1.0])
+def test_the_one_read_draw_follows_the_rule_and_its_generator(p):
+    rvq = ResidualVQ(6, 8, 4, quantize_dropout=p)
+    ours, rule = gen(7), gen(7)
+    draws = [rvq.active_layers(ours) for _ in range(300)]
+    assert draws == [rule_draw(rule, p, 6) for _ in range(300)]
+    assert torch.equal(ours.get_state(), rule.get_state())  # later draws (codebook resets) are unchanged too
+    assert set(draws) == {1, 2, 3, 4, 5, 6}
+
+
+def test_no_layer_dropout_draws_nothing():
+    g = gen(7)
+    state = g.get_state()
+    assert ResidualVQ(6, 8, 4, quantize_dropout=0.0).active_layers(g) == 6
+    assert ResidualVQ(1, 8, 4, quantize_dropout=0.5).active_layers(g) == 1
+    assert torch.equal(g.get_state(), state)
+
+
 def test_get_codes_from_indices_with_missing_layers():
     rvq, z = fitted_rvq(3)
     ids = torch.tensor([[3, -1, 5], [-1, -1, -1]])

@@ -43,11 +43,23 @@ class ResidualVQ(nn.Module):
         )
 
     def active_layers(self, generator: torch.Generator) -> int:
-        """How many layers run in this training batch: all, or 1 + s with s ~ U{0..R−1} with prob. p."""
-        if self.quantize_dropout > 0 and self.num_layers > 1:
-            if torch.rand((), generator=generator, device=generator.device) < self.quantize_dropout:
-                return int(torch.randint(1, self.num_layers + 1, (), generator=generator, device=generator.device))
-        return self.num_layers
+        """How many layers run in this training batch: all, or 1 + s with s ~ U{0..R−1} with prob. p.
+
+        The rule draws the depth only when a layer is dropped. Both draws are made and read back as one
+        value (0: nothing dropped), because on a GPU every read waits for the queued kernels; when nothing
+        is dropped the depth draw is put back, so ``generator`` advances exactly as under the rule.
+        """
+        if self.quantize_dropout == 0 or self.num_layers == 1:
+            return self.num_layers
+        device = generator.device
+        dropped = torch.rand((), generator=generator, device=device) < self.quantize_dropout
+        before_depth = generator.get_state()
+        depth = torch.randint(1, self.num_layers + 1, (), generator=generator, device=device)
+        chosen = int(torch.where(dropped, depth, 0))  # the step's one host read
+        if chosen == 0:
+            generator.set_state(before_depth)
+            return self.num_layers
+        return chosen
 
     @in_fp32  # residuals, nearest codes and codebook EMA stay exact under bf16 autocast
     def forward(self, z: torch.Tensor, generator: torch.Generator | None = None) -> QuantizeOutput:
