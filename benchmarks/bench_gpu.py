@@ -174,10 +174,31 @@ def load_file_module(path: Path, name: str):
     return module
 
 
+OFFICIAL_SOURCES = {  # option: (the file its module comes from, the packages that file's import needs)
+    "official_discord": (Path("MotionPriors/models/rf_decoder/Unet1Dflow_decoder.py"), ("einops", "torchdiffeq")),
+    "official_momask": (Path("models/vq/model.py"), ("einops",)),
+}
+
+
+def official_problems(args) -> list[str]:
+    """What keeps a given official repository from joining the rounds, checked before anything is timed."""
+    problems = []
+    for option, (source, packages) in OFFICIAL_SOURCES.items():
+        root = getattr(args, option)
+        if root is None:
+            continue
+        flag = "--" + option.replace("_", "-")
+        if not (root / source).is_file():
+            problems.append(f"{flag} {root}: no {source} there (is it a checkout of the right repository?)")
+        missing = [name for name in packages if importlib.util.find_spec(name) is None]
+        if missing:
+            problems.append(f"{flag} needs {', '.join(missing)}: pip install {' '.join(missing)}")
+    return problems
+
+
 def official_discord_unet(root: Path, config):
     """whwjdqls/DisCoRD's ``Unet1DforFlowDecoder`` at the sizes of ``config`` (its ``configs/config_model.yaml``)."""
-    source = root / "MotionPriors" / "models" / "rf_decoder" / "Unet1Dflow_decoder.py"
-    module = load_file_module(source, "official_discord_unet")
+    module = load_file_module(root / OFFICIAL_SOURCES["official_discord"][0], "official_discord_unet")
     return module.Unet1DforFlowDecoder(
         dim=config.width,
         dim_mults=tuple(config.width_mults),
@@ -429,6 +450,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--json", type=Path, default=None, help="write the records here")
     add_timing_arguments(parser, repeats=4)
     args = parser.parse_args(argv)
+    if problems := official_problems(args):
+        parser.error("; ".join(problems))
     device = torch.device(args.device or ("cuda" if torch.cuda.is_available() and not args.smoke else "cpu"))
     args.profile = "smoke" if args.smoke else "full"
     args.compile = device.type == "cuda" if args.compile is None else args.compile

@@ -40,3 +40,19 @@ def test_the_smoke_run_records_every_section(bench_gpu, tmp_path, capsys):
 def test_official_modules_need_their_repositories(bench_gpu, tmp_path):
     with pytest.raises(FileNotFoundError):
         bench_gpu.official_discord_unet(tmp_path, None)
+
+
+def test_a_wrong_official_path_stops_the_run_before_timing(bench_gpu, tmp_path, capsys):
+    with pytest.raises(SystemExit):
+        bench_gpu.main(["--smoke", "--official-momask", str(tmp_path), "--sections", "peak"])
+    printed = capsys.readouterr()
+    assert f"--official-momask {tmp_path}: no models/vq/model.py there" in printed.err
+    assert "matmul peak" not in printed.out
+
+
+def test_the_official_modules_packages_are_named(bench_gpu, tmp_path, monkeypatch):
+    (tmp_path / "models" / "vq").mkdir(parents=True)
+    (tmp_path / "models" / "vq" / "model.py").write_text("")
+    monkeypatch.setattr(bench_gpu.importlib.util, "find_spec", lambda name: None)
+    args = bench_gpu.argparse.Namespace(official_discord=None, official_momask=tmp_path)
+    assert bench_gpu.official_problems(args) == ["--official-momask needs einops: pip install einops"]
