@@ -94,7 +94,7 @@ def test_the_claims_table_prints_the_scale_of_each_measured_row(study_folder, tm
     from motionlab import results
 
     monkeypatch.setenv(results.RESULTS_ENV, str(tmp_path / "results"))
-    table = claims_table("laptop", budget=load_budget("laptop", study_folder), spread=None)
+    table = claims_table("laptop", budget=load_budget("laptop", study_folder), spread=None, scale=None)
     scales = {row.rule: row.scale for row in table}
     assert scales["tps/jerk_gt_single < tps/jerk_tps < tps/jerk_gt_concat"].startswith("By training budget: 800 steps")
     assert scales["discord/sjpe_rf < discord/sjpe_ff"] == ""

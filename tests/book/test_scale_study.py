@@ -121,7 +121,8 @@ def test_bad_arguments_are_clear_errors(capsys):
 
 
 def test_the_book_holds_no_smoke_record_and_says_when_nothing_was_measured():
-    """book/data/scale/ holds GPU results only: without one the book says so, with the command a GPU run needs."""
+    """book/data/scale/ holds results only, never a smoke run's; without a GPU point the book says so, with the
+    command a GPU run needs."""
     folder = REPO / "book" / "data" / "scale"
     for path in folder.rglob("*.json"):
         assert json.loads(path.read_text()).get("profile") != "smoke", path
@@ -130,8 +131,8 @@ def test_the_book_holds_no_smoke_record_and_says_when_nothing_was_measured():
 
 
 def test_the_recorded_points_measured_the_books_models_and_evaluations():
-    """Every point under book/data/scale/ (none until a GPU run is committed) was trained and scored as the code would
-    now; a change to a studied model or its evaluation fails here until the point is measured again."""
+    """Every point under book/data/scale/ was trained and scored as the code would now; a change to a studied model
+    or its evaluation fails here until the point is measured again."""
     study = load_scale_study("laptop")
     assert study is None or not study.set_aside, "\n".join(study.set_aside)
 
