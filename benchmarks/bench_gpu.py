@@ -175,7 +175,7 @@ def load_file_module(path: Path, name: str):
 
 
 OFFICIAL_SOURCES = {  # option: (the file its module comes from, the packages that file's import needs)
-    "official_discord": (Path("MotionPriors/models/rf_decoder/Unet1Dflow_decoder.py"), ("einops", "torchdiffeq")),
+    "official_discord": (Path("MotionPriors/models/rf_decoder/Unet1Dflow_decoder.py"), ("einops",)),
     "official_momask": (Path("models/vq/model.py"), ("einops",)),
 }
 
@@ -190,6 +190,8 @@ def official_problems(args) -> list[str]:
         flag = "--" + option.replace("_", "-")
         if not (root / source).is_file():
             problems.append(f"{flag} {root}: no {source} there (is it a checkout of the right repository?)")
+        if option == "official_discord" and "decode" in getattr(args, "sections", ()):
+            packages = (*packages, "torchdiffeq")  # the public code's sampler drives its U-Net
         missing = [name for name in packages if importlib.util.find_spec(name) is None]
         if missing:
             problems.append(f"{flag} needs {', '.join(missing)}: pip install {' '.join(missing)}")

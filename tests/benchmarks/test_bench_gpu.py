@@ -54,5 +54,14 @@ def test_the_official_modules_packages_are_named(bench_gpu, tmp_path, monkeypatc
     (tmp_path / "models" / "vq").mkdir(parents=True)
     (tmp_path / "models" / "vq" / "model.py").write_text("")
     monkeypatch.setattr(bench_gpu.importlib.util, "find_spec", lambda name: None)
-    args = bench_gpu.argparse.Namespace(official_discord=None, official_momask=tmp_path)
+    args = bench_gpu.argparse.Namespace(official_discord=None, official_momask=tmp_path, sections=["decode"])
     assert bench_gpu.official_problems(args) == ["--official-momask needs einops: pip install einops"]
+    source = tmp_path / bench_gpu.OFFICIAL_SOURCES["official_discord"][0]
+    source.parent.mkdir(parents=True)
+    source.write_text("")
+    args = bench_gpu.argparse.Namespace(official_discord=tmp_path, official_momask=None, sections=["decode"])
+    assert bench_gpu.official_problems(args) == [
+        "--official-discord needs einops, torchdiffeq: pip install einops torchdiffeq"
+    ]
+    args.sections = ["train"]  # torchdiffeq drives only the official decoding
+    assert bench_gpu.official_problems(args) == ["--official-discord needs einops: pip install einops"]
