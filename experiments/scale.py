@@ -244,7 +244,7 @@ def main(argv: list[str] | None = None) -> int:
         _log(f"carried in: {', '.join(unpacked) if unpacked else 'nothing'}")
     try:
         return _run_points(args, points, records, done, rates, run, precision, device_type)
-    except KeyboardInterrupt:  # the lease's hard stop: trainings keep their last checkpoint
+    except KeyboardInterrupt:  # the lease's hard stop: a training checkpoints the step it stopped at
         left = [p.key for p in points if p.key not in done]
         print(f"interrupted: {len(left)} point(s) left ({', '.join(left)}); run again to continue", flush=True)
         return 130

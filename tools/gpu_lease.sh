@@ -34,7 +34,7 @@ if [ -n "${SCALE_ONLY:-}" ]; then
   cp "$committed"/*.json "$records/" 2>/dev/null  # none yet: the run starts at 10x
   carry_in=()
   [ -d _build/gpu-carry ] && carry_in=(--carry-in _build/gpu-carry)  # the last lease's scale-cache.tgz.* parts
-  # stopped from outside at SCALE_SECONDS: a training cut off keeps its last checkpoint, packed into $OUT on the way out
+  # stopped from outside at SCALE_SECONDS (SIGINT): a training cut off saves the step it reached, packed into $OUT on the way out
   timeout -s INT -k 60 "${SCALE_SECONDS:-510}" python experiments/scale.py --device "${SCALE_DEVICE:-cuda}" \
     --minutes "${SCALE_MINUTES:-8}" --out "$records" "${carry_in[@]}" --carry-out "$OUT" --carry-parts 4 \
     ${SCALE_ARGS:-} > "$OUT/scale.txt" 2>&1

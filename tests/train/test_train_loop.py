@@ -1,6 +1,8 @@
 """The shared training loop: learning, schedules, EMA, checkpoints and bit-identical resume."""
 
 import math
+import os
+import signal
 
 import pytest
 import torch
@@ -161,6 +163,57 @@ def test_resume_is_bit_identical(tmp_path):
     # a different schedule cannot silently continue an old run
     with pytest.raises(ValueError, match="lr"):
         Trainer(make_model(), noisy_mse, regression_batch, config(steps=20, lr=0.5), workdir=tmp_path, progress=False)
+
+
+def ctrl_c_at(steps, signals=1):
+    """``noisy_mse`` that sends this process ``signals`` SIGINTs during each step in ``steps`` (counted from 1)."""
+    seen = []
+
+    def loss_fn(model, batch, generator):
+        seen.append(None)
+        if len(seen) in steps:
+            for _ in range(signals):
+                os.kill(os.getpid(), signal.SIGINT)
+        return noisy_mse(model, batch, generator)
+
+    return loss_fn
+
+
+def test_ctrl_c_checkpoints_the_step_it_arrives_in_and_the_run_resumes_bit_identically(tmp_path):
+    cfg = config(steps=20, ckpt_every=5)
+    straight = Trainer(make_model(), noisy_mse, regression_batch, cfg, progress=False)
+    straight.fit()
+
+    handler = signal.getsignal(signal.SIGINT)
+    interrupted = Trainer(make_model(), ctrl_c_at({7}), regression_batch, cfg, workdir=tmp_path, progress=False)
+    with pytest.raises(KeyboardInterrupt, match="step 7"):
+        interrupted.fit()
+    assert signal.getsignal(signal.SIGINT) is handler  # the caller's handler is back
+    assert interrupted.step == 7  # the step under way finished; no later one started
+    assert latest_checkpoint(tmp_path).name == "step_00000007"  # not the periodic one of step 5
+
+    resumed = Trainer(make_model(), noisy_mse, regression_batch, cfg, workdir=tmp_path, progress=False)
+    assert resumed.step == 7
+    resumed.fit()
+    for k, v in straight.model.state_dict().items():
+        assert torch.equal(v, resumed.model.state_dict()[k]), k
+    assert resumed.history == straight.history
+
+
+def test_a_second_ctrl_c_interrupts_at_once(tmp_path):
+    trainer = Trainer(make_model(), ctrl_c_at({7}, signals=2), regression_batch, config(), workdir=tmp_path)
+    with pytest.raises(KeyboardInterrupt) as raised:
+        trainer.fit()
+    assert "step" not in str(raised.value)  # raised inside the step, not after its checkpoint
+    assert trainer.step == 6
+    assert latest_checkpoint(tmp_path) is None
+
+
+def test_without_a_workdir_ctrl_c_interrupts_at_once():
+    trainer = Trainer(make_model(), ctrl_c_at({3}), regression_batch, config(), progress=False)
+    with pytest.raises(KeyboardInterrupt):
+        trainer.fit()
+    assert trainer.step == 2  # nothing to save, so nothing to wait for
 
 
 def test_periodic_checkpoints_and_validation(tmp_path):

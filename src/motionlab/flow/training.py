@@ -154,7 +154,7 @@ def discord_trainer(
         seed=cfg.seed,
         log_every=max(1, cfg.train_steps // 100),
         val_every=max(1, cfg.train_steps // 10) if val_fn else 0,
-        ckpt_every=max(1, cfg.train_steps // 10),  # an interrupted run resumes from here (Ctrl-C, a lease ending)
+        ckpt_every=max(1, cfg.train_steps // 10),  # a killed run resumes from here (Ctrl-C saves where it stops)
     )
     trainer = Trainer(
         model,

@@ -23,6 +23,11 @@ RNG (which ``nn.Dropout`` reads; a fresh run seeds it from ``config.seed``), so 
 go or N/2 + resume + N/2 produces the same bits. The learning rate is a pure function of the step
 (:mod:`.schedules`), so there is no scheduler state to lose.
 
+Ctrl-C (a SIGINT: a lease's ``timeout -s INT``, a notebook's interrupt) during :meth:`Trainer.fit` of a single
+process with a ``workdir`` lets the step under way finish, writes a checkpoint at that step and then raises
+``KeyboardInterrupt``, so the next run resumes where this one stopped instead of at the last periodic checkpoint.
+A second Ctrl-C interrupts at once.
+
     trainer = Trainer(model, loss_fn, dataset.batches(64), TrainConfig(steps=2000), workdir=folder)
     history = trainer.fit()          # resumes from folder's latest checkpoint if there is one
 """
@@ -32,6 +37,8 @@ from __future__ import annotations
 import json
 import math
 import os
+import signal
+import threading
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -233,7 +240,19 @@ class Trainer:
         return average_scalars(dict(zip(keys, values)), self.dist)
 
     def fit(self, until: int | None = None) -> list[dict[str, float]]:
-        """Train up to step ``until`` (default: ``config.steps``); returns the history of logged averages."""
+        """Train up to step ``until`` (default: ``config.steps``); returns the history of logged averages.
+
+        With a ``workdir`` in a single process, Ctrl-C checkpoints the step it arrives in before
+        ``KeyboardInterrupt`` is raised (see the module's docstring)."""
+        # Ranks of a distributed run could see the signal at different steps and then disagree on where to save.
+        deferrable = self.workdir is not None and self.dist.world_size == 1
+        with DeferredInterrupt(enabled=deferrable) as interrupt:
+            self._fit(until, interrupt)
+        if interrupt.requested:
+            raise KeyboardInterrupt(f"training stopped at step {self.step:,}; its checkpoint resumes it")
+        return self.history
+
+    def _fit(self, until: int | None, interrupt: DeferredInterrupt) -> None:
         cfg = self.config
         stop = cfg.steps if until is None else min(until, cfg.steps)
         bar = tqdm(
@@ -259,12 +278,13 @@ class Trainer:
                     self.history.append({"step": self.step, **self.validate()})
                 if self.workdir is not None and cfg.ckpt_every and self.step % cfg.ckpt_every == 0:
                     self.save()
+                if interrupt.requested:
+                    break
         finally:
             bar.close()
         self._check_finite()
         if self.workdir is not None and self._saved_step != self.step:
             self.save()
-        return self.history
 
     @torch.no_grad()
     def validate(self) -> dict[str, float]:
@@ -320,6 +340,34 @@ class Trainer:
         self.history = list(meta["history"])
         self._acc = {k: torch.tensor(float(v), dtype=torch.float64, device=self.device) for k, v in meta["acc"].items()}
         self._acc_n = int(meta["acc_n"])
+
+
+class DeferredInterrupt:
+    """While entered (and ``enabled``), the first SIGINT only sets :attr:`requested`: the loop finishes its step,
+    checkpoints and stops. The handler that was there before comes back at once, so a second SIGINT interrupts
+    wherever the program is. Off the main thread, or under a handler Python did not install, nothing changes."""
+
+    def __init__(self, enabled: bool = True):
+        self.requested = False
+        self._enabled = enabled
+        self._previous = None
+
+    def __enter__(self) -> DeferredInterrupt:
+        if self._enabled and threading.current_thread() is threading.main_thread():
+            previous = signal.getsignal(signal.SIGINT)
+            if previous is not None:  # None: a handler set outside Python, which could not be put back
+                self._previous = previous
+                signal.signal(signal.SIGINT, self._request)
+        return self
+
+    def _request(self, signum, frame) -> None:
+        self.requested = True
+        signal.signal(signal.SIGINT, self._previous)
+
+    def __exit__(self, *exc) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+            self._previous = None
 
 
 def final_loss(history: list[dict[str, float]]) -> float:
