@@ -216,6 +216,17 @@ def test_without_a_workdir_ctrl_c_interrupts_at_once():
     assert trainer.step == 2  # nothing to save, so nothing to wait for
 
 
+def test_a_process_that_ignores_ctrl_c_goes_on_ignoring_it(tmp_path):
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)  # as in a non-interactive shell's background job
+    try:
+        trainer = Trainer(make_model(), ctrl_c_at({3}), regression_batch, config(), workdir=tmp_path, progress=False)
+        trainer.fit()
+        assert trainer.step == 20
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def test_periodic_checkpoints_and_validation(tmp_path):
     cfg = config(steps=12, ckpt_every=4, keep_checkpoints=2, val_every=6)
     calls = []

@@ -345,7 +345,8 @@ class Trainer:
 class DeferredInterrupt:
     """While entered (and ``enabled``), the first SIGINT only sets :attr:`requested`: the loop finishes its step,
     checkpoints and stops. The handler that was there before comes back at once, so a second SIGINT interrupts
-    wherever the program is. Off the main thread, or under a handler Python did not install, nothing changes."""
+    wherever the program is. Off the main thread, where SIGINT is ignored, or under a handler Python did not
+    install, nothing changes."""
 
     def __init__(self, enabled: bool = True):
         self.requested = False
@@ -355,7 +356,9 @@ class DeferredInterrupt:
     def __enter__(self) -> DeferredInterrupt:
         if self._enabled and threading.current_thread() is threading.main_thread():
             previous = signal.getsignal(signal.SIGINT)
-            if previous is not None:  # None: a handler set outside Python, which could not be put back
+            # None: a handler set outside Python, which could not be put back; SIG_IGN: the process ignores Ctrl-C
+            # (a shell's background job), and a training inside it must not start to listen
+            if previous not in (None, signal.SIG_IGN):
                 self._previous = previous
                 signal.signal(signal.SIGINT, self._request)
         return self
