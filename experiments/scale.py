@@ -33,8 +33,11 @@ finished models they load (the evaluator, a tokenizer two groups share) and the 
 off mid-way; ``--carry-in DIR`` on the next lease unpacks it first, so that point resumes from its checkpoint instead
 of starting again, and a point longer than one command finishes over several. With ``--carry-out`` a run uses all of
 ``--minutes`` and is stopped from outside (``timeout -s INT``, as ``tools/gpu_lease.sh`` does); it packs on the way
-out. Without it, a point cut off is retrained from the start by the next run, at the cost of its predicted time again.
-A resumed model's record says from which step (``"resumed_from"``); its seconds time the rest of the steps only.
+out. Stopped with SIGINT (Ctrl-C, ``timeout -s INT``), a training saves the step it reached first. Without
+``--carry-out``, a point cut off on a leased machine is retrained from the start by the next lease, at the cost of its
+predicted time again; on a machine that keeps ``$MOTIONLAB_HOME`` (a workstation's CPUs, over several sittings) the
+next run resumes it from the cache as it is. A resumed model's record says from which step (``"resumed_from"``); its
+seconds time the rest of the steps only.
 
 Each point's record, ``<out>/<group>-x<multiple>.json``, holds the device (the GPU's name, or the CPU's), the
 precision, the torch version, the commit, the data, the batch factor, every model's steps × batch and time, the
