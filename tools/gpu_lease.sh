@@ -17,7 +17,7 @@
 #
 # The scale study continues from the records committed under book/data/scale/embedded-v<N>/. After the lease, copy
 # $OUT/scale/*.json (the points this run added) there and commit them, and replace _build/gpu-carry/ with the run's
-# $OUT/scale-cache.tgz.* parts (the models the remaining points need, and a training cut off at its last checkpoint):
+# $OUT/scale-cache.tgz.* parts (the models the remaining points need, and a training cut off, saved at the step it reached):
 # name _build/gpu-carry in the next lease's carry, and that lease resumes where this one stopped.
 set -uo pipefail
 cd "$(dirname "$0")/.."
