@@ -41,6 +41,15 @@ def make_model():
         return nn.Sequential(nn.Linear(3, 8), nn.Dropout(0.1), nn.Linear(8, 1))
 
 
+def assert_same_run(resumed, straight):
+    """Weights, EMA weights and logged history equal bit for bit."""
+    for k, v in straight.model.state_dict().items():
+        assert torch.equal(v, resumed.model.state_dict()[k]), k
+    for k, v in straight.ema.shadow.items():
+        assert torch.equal(v, resumed.ema.shadow[k]), k
+    assert resumed.history == straight.history
+
+
 def config(**kw):
     base = dict(steps=20, lr=1e-2, schedule="cosine", warmup_steps=3, log_every=2, ema_decay=0.9, grad_clip=1.0)
     return TrainConfig(**{**base, **kw})
@@ -155,11 +164,7 @@ def test_resume_is_bit_identical(tmp_path):
     assert resumed.step == 9
     resumed.fit()
 
-    for k, v in straight.model.state_dict().items():
-        assert torch.equal(v, resumed.model.state_dict()[k]), k
-    for k, v in straight.ema.shadow.items():
-        assert torch.equal(v, resumed.ema.shadow[k]), k
-    assert resumed.history == straight.history
+    assert_same_run(resumed, straight)
     # a different schedule cannot silently continue an old run
     with pytest.raises(ValueError, match="lr"):
         Trainer(make_model(), noisy_mse, regression_batch, config(steps=20, lr=0.5), workdir=tmp_path, progress=False)
@@ -195,9 +200,7 @@ def test_ctrl_c_checkpoints_the_step_it_arrives_in_and_the_run_resumes_bit_ident
     resumed = Trainer(make_model(), noisy_mse, regression_batch, cfg, workdir=tmp_path, progress=False)
     assert resumed.step == 7
     resumed.fit()
-    for k, v in straight.model.state_dict().items():
-        assert torch.equal(v, resumed.model.state_dict()[k]), k
-    assert resumed.history == straight.history
+    assert_same_run(resumed, straight)
 
 
 def test_a_second_ctrl_c_interrupts_at_once(tmp_path):
