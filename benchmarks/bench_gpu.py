@@ -174,24 +174,30 @@ def load_file_module(path: Path, name: str):
     return module
 
 
-OFFICIAL_SOURCES = {  # option: (the file its module comes from, the packages that file's import needs)
-    "official_discord": (Path("MotionPriors/models/rf_decoder/Unet1Dflow_decoder.py"), ("einops",)),
-    "official_momask": (Path("models/vq/model.py"), ("einops",)),
+# option: (the file its module comes from, the packages that file's import needs, those a section adds)
+OFFICIAL_SOURCES = {
+    # the public code's torchdiffeq sampler drives its U-Net in the decode section only
+    "official_discord": (
+        Path("MotionPriors/models/rf_decoder/Unet1Dflow_decoder.py"),
+        ("einops",),
+        {"decode": ("torchdiffeq",)},
+    ),
+    "official_momask": (Path("models/vq/model.py"), ("einops",), {}),
 }
 
 
 def official_problems(args) -> list[str]:
     """What keeps a given official repository from joining the rounds, checked before anything is timed."""
     problems = []
-    for option, (source, packages) in OFFICIAL_SOURCES.items():
+    for option, (source, packages, by_section) in OFFICIAL_SOURCES.items():
         root = getattr(args, option)
         if root is None:
             continue
         flag = "--" + option.replace("_", "-")
         if not (root / source).is_file():
             problems.append(f"{flag} {root}: no {source} there (is it a checkout of the right repository?)")
-        if option == "official_discord" and "decode" in getattr(args, "sections", ()):
-            packages = (*packages, "torchdiffeq")  # the public code's sampler drives its U-Net
+        for section in getattr(args, "sections", ()):
+            packages = (*packages, *by_section.get(section, ()))
         missing = [name for name in packages if importlib.util.find_spec(name) is None]
         if missing:
             problems.append(f"{flag} needs {', '.join(missing)}: pip install {' '.join(missing)}")

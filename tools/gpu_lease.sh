@@ -17,8 +17,8 @@
 #
 # The scale study continues from the records committed under book/data/scale/embedded-v<N>/. After the lease, copy
 # $OUT/scale/*.json (the points this run added) there and commit them, and replace _build/gpu-carry/ with the run's
-# $OUT/scale-cache.tgz.* parts (the models the remaining points need, and a training cut off, saved at the step it reached):
-# name _build/gpu-carry in the next lease's carry, and that lease resumes where this one stopped.
+# $OUT/scale-cache.tgz.* parts (the models the remaining points need, and a training cut off, saved at the step it
+# reached): name _build/gpu-carry in the next lease's carry, and that lease resumes where this one stopped.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 OUT=${OUT:-_build/gpu}
@@ -34,7 +34,8 @@ if [ -n "${SCALE_ONLY:-}" ]; then
   cp "$committed"/*.json "$records/" 2>/dev/null  # none yet: the run starts at 10x
   carry_in=()
   [ -d _build/gpu-carry ] && carry_in=(--carry-in _build/gpu-carry)  # the last lease's scale-cache.tgz.* parts
-  # stopped from outside at SCALE_SECONDS (SIGINT): a training cut off saves the step it reached, packed into $OUT on the way out
+  # stopped from outside at SCALE_SECONDS (SIGINT): a training cut off saves the step it reached, packed into $OUT
+  # on the way out
   timeout -s INT -k 60 "${SCALE_SECONDS:-510}" python experiments/scale.py --device "${SCALE_DEVICE:-cuda}" \
     --minutes "${SCALE_MINUTES:-8}" --out "$records" "${carry_in[@]}" --carry-out "$OUT" --carry-parts 4 \
     ${SCALE_ARGS:-} > "$OUT/scale.txt" 2>&1
