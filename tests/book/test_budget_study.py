@@ -241,6 +241,24 @@ def test_the_budget_figure_adds_the_scale_study_s_points(study_folder):
         plot_scale(scale, {"sJPE": ["discord/sjpe_rf"]})
 
 
+def test_a_verdict_path_says_each_run_of_equal_verdicts_once():
+    from motionlab.report.scale import verdict_path
+
+    assert verdict_path("holds", []) == "holds here"
+    assert verdict_path("inconclusive", [(10, "holds"), (30, "does not hold")]) == (
+        "inconclusive here, holds at 10×, does not hold at 30×"
+    )
+    assert verdict_path("does not hold", [(10, "does not hold"), (30, "holds"), (100, "holds")]) == (
+        "does not hold here and at 10×, holds at 30× and 100×"
+    )
+    assert verdict_path("holds", [(10, "holds"), (30, "holds"), (100, "inconclusive")]) == (
+        "holds here and at 10× and 30×, inconclusive at 100×"
+    )
+    assert verdict_path("holds", [(10, "inconclusive"), (30, "inconclusive"), (100, "inconclusive")]) == (
+        "holds here, inconclusive at 10×, 30× and 100×"
+    )
+
+
 def test_a_chapter_says_in_one_sentence_where_its_verdicts_change_with_scale():
     from types import SimpleNamespace
 
@@ -252,10 +270,10 @@ def test_a_chapter_says_in_one_sentence_where_its_verdicts_change_with_scale():
     assert "no point for this chapter's claims yet" in none and none.count(".") == 1
     lower = _scale_study({"diffusion/fid_guided": (4.0, 0.5), "diffusion/fid_unguided": (6.0, 0.5)})
     sentence = scale_changes(rows, lower, "diffusion")
-    assert sentence.startswith("At 10×, 30× the laptop's training samples (NVIDIA H200, bf16), 1 of 1 verdicts change")
-    assert "does not hold here, holds at 10×, holds at 30×." in sentence
+    assert sentence.startswith("At 10×, 30× the laptop's training samples (NVIDIA H200, bf16), its one verdict changes")
+    assert "does not hold here, holds at 10× and 30×." in sentence
     higher = _scale_study({"diffusion/fid_guided": (8.0, 0.5), "diffusion/fid_unguided": (6.0, 0.5)})
-    assert "no verdict of this chapter changes (1 claim(s) judged)" in scale_changes(rows, higher, "diffusion")
+    assert "no verdict of this chapter changes (1 claim judged)" in scale_changes(rows, higher, "diffusion")
     assert "no point" in scale_changes(rows, higher, "tps")  # the study measured none of chapter 09's keys
     unmeasured = [SimpleNamespace(verdict=MISSING) for _ in CLAIMS]
     assert "this build has not measured them" in scale_changes(unmeasured, higher, "diffusion")

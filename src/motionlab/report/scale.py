@@ -273,15 +273,39 @@ def scale_changes(table, study: ScaleStudy | None, chapter: str, claims=None) ->
     samples = f"{profile_text(study.profile)} training samples"
     at = f"At {', '.join(multiple_text(m) for m in multiples)} {samples} ({' / '.join(machines)})"
     changed = [c for c, s in judged.items() if any(v != rows[c].verdict for v in s.verdicts.values())]
+    claims_judged = "1 claim" if len(judged) == 1 else f"{len(judged)} claims"
     if not changed:
-        return Sentence(f"{at}, no verdict of this chapter changes ({len(judged)} claim(s) judged).")
+        return Sentence(f"{at}, no verdict of this chapter changes ({claims_judged} judged).")
+    if len(judged) == 1:
+        count = "its one verdict changes"
+    else:
+        count = f"{len(changed)} of {len(judged)} verdicts {'changes' if len(changed) == 1 else 'change'}"
 
     def path(claim) -> str:
         verdicts = judged[claim].verdicts
-        steps = ", ".join(f"{verdicts[m]} at {multiple_text(m)}" for m in sorted(verdicts))
-        return f"“{claim.statement}” {rows[claim].verdict} here, {steps}"
+        return f"“{claim.statement}” " + verdict_path(rows[claim].verdict, [(m, verdicts[m]) for m in sorted(verdicts)])
 
-    return Sentence(f"{at}, {len(changed)} of {len(judged)} verdicts change: " + "; ".join(map(path, changed)) + ".")
+    return Sentence(f"{at}, {count}: " + "; ".join(map(path, changed)) + ".")
+
+
+def verdict_path(here: str, scaled: Sequence[tuple[float, str]]) -> str:
+    """A claim's verdicts from this build through the scale study's multiples, a run of equal verdicts said once:
+    ``"does not hold here and at 10×, holds at 30× and 100×"``."""
+    runs: list[tuple[str, list]] = [(here, [None])]  # None: this build
+    for multiple, verdict in scaled:
+        if verdict == runs[-1][0]:
+            runs[-1][1].append(multiple)
+        else:
+            runs.append((verdict, [multiple]))
+
+    def places(where: list) -> str:
+        multiples = [multiple_text(m) for m in where if m is not None]
+        if not multiples:
+            return "here"
+        at = f"at {multiples[0]}" if len(multiples) == 1 else f"at {', '.join(multiples[:-1])} and {multiples[-1]}"
+        return f"here and {at}" if None in where else at
+
+    return ", ".join(f"{verdict} {places(where)}" for verdict, where in runs)
 
 
 def scale_points(study: ScaleStudy, key: str) -> list[tuple[float, Estimate]]:
