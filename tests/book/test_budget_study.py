@@ -275,6 +275,11 @@ def test_a_chapter_says_in_one_sentence_where_its_verdicts_change_with_scale():
     higher = _scale_study({"diffusion/fid_guided": (8.0, 0.5), "diffusion/fid_unguided": (6.0, 0.5)})
     assert "no verdict of this chapter changes (1 claim judged)" in scale_changes(rows, higher, "diffusion")
     assert "no point" in scale_changes(rows, higher, "tps")  # the study measured none of chapter 09's keys
+    both = _scale_study(
+        {k: (4.0, 0.5) for k in ("discord/fid_rf", "discord/sjpe_ff")}
+        | {k: (6.0, 0.5) for k in ("discord/fid_ff", "discord/sjpe_rf")}
+    )
+    assert "1 of 2 verdicts changes: “Decoding the same tokens" in scale_changes(rows, both, "discord")
     unmeasured = [SimpleNamespace(verdict=MISSING) for _ in CLAIMS]
     assert "this build has not measured them" in scale_changes(unmeasured, higher, "diffusion")
     with pytest.raises(ValueError, match="no claim reads chapter 'nothing'"):
