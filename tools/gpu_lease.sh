@@ -31,7 +31,7 @@ if [ -n "${SCALE_ONLY:-}" ]; then
   records=${SCALE_RECORDS:-/tmp/scale-records}
   export MOTIONLAB_HOME=${MOTIONLAB_HOME:-/tmp/motionlab-home}
   rm -rf "$records" && mkdir -p "$records" "$OUT/scale"
-  cp "$committed"/*.json "$records/" 2>/dev/null  # none yet: the run starts at 10x
+  cp "$committed"/*.json "$records/" 2>/dev/null  # the points recorded so far: the run goes on after them
   carry_in=()
   [ -d _build/gpu-carry ] && carry_in=(--carry-in _build/gpu-carry)  # the last lease's scale-cache.tgz.* parts
   # stopped from outside at SCALE_SECONDS (SIGINT): a training cut off saves the step it reached, packed into $OUT

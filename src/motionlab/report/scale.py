@@ -17,6 +17,7 @@ import json
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from itertools import groupby
 from pathlib import Path
 
 from motionlab.comparison import Sentence
@@ -291,12 +292,8 @@ def scale_changes(table, study: ScaleStudy | None, chapter: str, claims=None) ->
 def verdict_path(here: str, scaled: Sequence[tuple[float, str]]) -> str:
     """A claim's verdicts from this build through the scale study's multiples, a run of equal verdicts said once:
     ``"does not hold here and at 10×, holds at 30× and 100×"``."""
-    runs: list[tuple[str, list]] = [(here, [None])]  # None: this build
-    for multiple, verdict in scaled:
-        if verdict == runs[-1][0]:
-            runs[-1][1].append(multiple)
-        else:
-            runs.append((verdict, [multiple]))
+    points = [(None, here), *scaled]  # None: this build
+    runs = [(verdict, [m for m, _ in run]) for verdict, run in groupby(points, key=lambda point: point[1])]
 
     def places(where: list) -> str:
         multiples = [multiple_text(m) for m in where if m is not None]
