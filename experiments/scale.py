@@ -37,7 +37,7 @@ out. Stopped with SIGINT (Ctrl-C, ``timeout -s INT``), a training saves the step
 ``--carry-out``, a point cut off on a leased machine is retrained from the start by the next lease, at the cost of its
 predicted time again; on a machine that keeps ``$MOTIONLAB_HOME`` (a workstation's CPUs, over several sittings) the
 next run resumes it from the cache as it is. A resumed model's record says from which step (``"resumed_from"``); its
-seconds time the rest of the steps only.
+``seconds`` time this run's steps only, and its ``sittings`` list every run that trained it (steps, seconds, device).
 
 Each point's record, ``<out>/<group>-x<multiple>.json``, holds the device (the GPU's name, or the CPU's), the
 precision, the torch version, the commit, the data, the batch factor, every model's steps × batch and time, the

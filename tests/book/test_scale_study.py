@@ -104,6 +104,45 @@ def test_a_point_measured_here_predicts_the_next_better_than_the_benchmark():
     assert point_seconds(Point("m2d2m", 30, 2), "laptop", rates) == pytest.approx(expected)
 
 
+def test_a_model_trained_run_by_run_is_timed_over_its_sittings_on_that_device():
+    """A model resumed over several runs times all of its steps, not the last run's; a sitting on another device or
+    of unknown length (a checkpoint from before sittings were kept) times nothing."""
+    sittings = [
+        {"steps": [0, 1000], "seconds": None},
+        {"steps": [1000, 4000], "seconds": 30.0, "device": "cuda"},
+        {"steps": [4000, 5000], "seconds": 90.0, "device": "cpu"},
+        {"steps": [5000, 10000], "seconds": 50.0, "device": "cuda"},
+    ]
+    record = {
+        "group": "m2d2m",
+        "multiple": 10.0,
+        "device_type": "cuda",
+        "precision": "bf16",
+        "models": {
+            "tokenizer/vq": {
+                "steps": 10000,
+                "batch": 64,
+                "seconds": 50.0,
+                "trained": True,
+                "resumed_from": 5000,
+                "sittings": sittings,
+            },
+            "t2m/dynamic": {
+                "steps": 4000,
+                "batch": 64,
+                "seconds": 1.0,
+                "trained": False,  # finished in an earlier run
+                "sittings": [{"steps": [0, 4000], "seconds": 8.0, "device": "cuda"}],
+            },
+        },
+        "seconds": {"scoring": 90.0},
+    }
+    steps = measured_rates([record], "cuda", "bf16").steps
+    assert steps["tokenizer/vq", 64][0] == pytest.approx(1e3 * 80.0 / 8000)
+    assert steps["t2m/dynamic", 64][0] == pytest.approx(2.0)
+    assert measured_rates([record | {"device_type": "cpu"}], "cpu", "bf16").steps["tokenizer/vq", 64][0] == 90.0
+
+
 def test_bad_arguments_are_clear_errors(capsys):
     script = _script()
     for args, message in (
@@ -181,6 +220,8 @@ def test_a_record_carries_the_machine_and_its_configs(smoke):
     assert record["device_type"] == "cpu" and record["multiple"] == 1.0 and record["batch_factor"] == 1
     assert record["models"]["t2m/dynamic"] == record["models"]["t2m/dynamic"] | {"steps": 150, "batch": 16}
     assert record["models"]["t2m/dynamic"]["trained"]  # a fresh cache: every model of the point trained in it
+    (sitting,) = record["models"]["t2m/dynamic"]["sittings"]  # trained in one process, this one
+    assert sitting["steps"] == [0, 150] and sitting["device"] == "cpu" and sitting["seconds"] > 0
     assert point_changes(record, "smoke") == []
 
 

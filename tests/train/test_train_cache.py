@@ -17,6 +17,7 @@ from motionlab.train import (
     load_trained,
     seeded,
     train_or_load,
+    training_sittings,
 )
 
 
@@ -190,3 +191,13 @@ def test_legacy_artefacts_without_a_checksum(home):
     (folder / "config.json").write_text(json.dumps(info))
     with pytest.raises(DamagedArtefactError, match="NaN"):
         load_trained("toy", cfg, build, "smoke")
+
+
+def test_a_finished_artefact_keeps_the_sittings_that_trained_it():
+    config = ToyConfig()
+    with pytest.raises(RuntimeError, match="killed"):
+        train_or_load("toy", config, build, Counter(fail_at=4))
+    train_or_load("toy", config, build, Counter())
+    sittings = training_sittings(artefact_dir("toy", config))
+    assert [s["steps"] for s in sittings] == [[0, 4], [4, 10]]
+    assert all(s["seconds"] > 0 and s["device"] == "cpu" for s in sittings)

@@ -1,5 +1,6 @@
 """The shared training loop: learning, schedules, EMA, checkpoints and bit-identical resume."""
 
+import json
 import math
 import os
 import signal
@@ -201,6 +202,32 @@ def test_ctrl_c_checkpoints_the_step_it_arrives_in_and_the_run_resumes_bit_ident
     assert resumed.step == 7
     resumed.fit()
     assert_same_run(resumed, straight)
+
+
+def test_each_process_that_trains_a_model_is_one_sitting_of_its_checkpoints(tmp_path):
+    cfg = config(steps=20, ckpt_every=0)
+    Trainer(make_model(), noisy_mse, regression_batch, cfg, workdir=tmp_path, progress=False).fit(until=12)
+    resumed = Trainer(make_model(), noisy_mse, regression_batch, cfg, workdir=tmp_path, progress=False)
+    assert [s["steps"] for s in resumed.sittings] == [[0, 12]]  # read back from the checkpoint
+    resumed.fit()
+    resumed.fit()  # nothing left to train: no sitting
+    first, second = resumed.sittings
+    assert second["steps"] == [12, 20] and first["seconds"] > 0 and second["seconds"] > 0
+    assert second["device"] == "cpu" and second["threads"] == torch.get_num_threads() and second["ranks"] == 1
+    meta = json.loads((latest_checkpoint(tmp_path) / "meta.json").read_text())
+    assert [s["steps"] for s in meta["sittings"]] == [[0, 12], [12, 20]]  # the last checkpoint lists both
+
+
+def test_a_checkpoint_from_before_sittings_resumes_with_its_time_unknown(tmp_path):
+    cfg = config(steps=20, ckpt_every=0)
+    Trainer(make_model(), noisy_mse, regression_batch, cfg, workdir=tmp_path, progress=False).fit(until=5)
+    meta_path = latest_checkpoint(tmp_path) / "meta.json"
+    meta = json.loads(meta_path.read_text())
+    del meta["sittings"]
+    meta_path.write_text(json.dumps(meta))
+    resumed = Trainer(make_model(), noisy_mse, regression_batch, cfg, workdir=tmp_path, progress=False)
+    resumed.fit()
+    assert [(s["steps"], s["seconds"] is None) for s in resumed.sittings] == [([0, 5], True), ([5, 20], False)]
 
 
 def test_a_second_ctrl_c_interrupts_at_once(tmp_path):

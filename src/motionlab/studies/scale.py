@@ -121,20 +121,30 @@ class Rates:
 
 def measured_rates(records: list[dict], device_type: str, precision: str, run=None) -> Rates:
     """:class:`Rates` with the step times and scoring times that ``records`` (points written by
-    ``experiments/scale.py``) measured on ``device_type`` in ``precision``: a model's seconds over its steps where the
-    point trained it (a model loaded from the cache measured nothing), and a group's scoring seconds (its evaluation
-    does not depend on the multiple)."""
+    ``experiments/scale.py``) measured on ``device_type`` in ``precision``: a model's seconds over its steps (from
+    its sittings on ``device_type`` where the record lists them, else where the point itself trained it: a model
+    loaded from the cache measured nothing), and a group's scoring seconds (its evaluation does not depend on the
+    multiple)."""
     steps, scoring = {}, {}
     for record in sorted(records, key=lambda r: r["multiple"]):  # the largest multiple last: it wins
         if record.get("device_type") != device_type or record.get("precision") != precision:
             continue
         point = f"{record['group']}-x{record['multiple']:g}"
         for name, model in record["models"].items():
-            timed = model["steps"] - model.get("resumed_from", 0)  # a resumed training timed its last steps only
-            if model.get("trained") and timed > 0:
-                steps[name, model["batch"]] = (1e3 * model["seconds"] / timed, point)
+            if (ms := _step_ms(model, device_type)) is not None:
+                steps[name, model["batch"]] = (ms, point)
         scoring[record["group"]] = (record["seconds"]["scoring"], point)
     return Rates(precision, run, steps, scoring)
+
+
+def _step_ms(model: dict, device_type: str) -> float | None:
+    """A recorded model's milliseconds per training step on ``device_type`` (None: nothing timed there)."""
+    if "sittings" in model:
+        timed = [s for s in model["sittings"] if s.get("device") == device_type and s.get("seconds") is not None]
+        n = sum(s["steps"][1] - s["steps"][0] for s in timed)
+        return 1e3 * sum(s["seconds"] for s in timed) / n if n > 0 else None
+    timed = model["steps"] - model.get("resumed_from", 0)  # a resumed training timed its last steps only
+    return 1e3 * model["seconds"] / timed if model.get("trained") and timed > 0 else None
 
 
 def plan_point(point: Point, profile: str, rates: Rates) -> list[PlannedModel]:
@@ -198,10 +208,13 @@ def plan_lines(points: list[Point], profile: str, rates: Rates, done=(), minutes
 # ------------------------------------------------------------------------------------------- train and score
 def train_point(point: Point, dataset, profile: str, device: str | None) -> dict[str, dict[str, Any]]:
     """Train (or load from the cache) each model of ``point`` inside its scaled budget: ``{name: {"seconds": ...,
-    "trained": ...}}`` (a model found in the cache was not trained here, so its seconds time no training), with
-    ``"resumed_from": step`` where the training resumed a checkpoint carried in from an earlier run."""
+    "trained": ..., "sittings": [...]}}``. ``seconds`` is this run's wall time (a model found in the cache was not
+    trained here, so its seconds time no training; ``"resumed_from": step`` marks a training that resumed a
+    checkpoint from an earlier run); ``sittings`` are every process that trained the model, this one and earlier
+    ones (:func:`motionlab.train.training_sittings`), so a model trained run by run keeps its whole time."""
     from motionlab import models
     from motionlab.paths import cache_dir
+    from motionlab.train import training_sittings
 
     from .carry import checkpoints_in_progress, find_artefact
 
@@ -215,9 +228,11 @@ def train_point(point: Point, dataset, profile: str, device: str | None) -> dict
             start = time.perf_counter()
             models.load(name, dataset, profile, device=device)
             out[name] = {"seconds": round(time.perf_counter() - start, 2), "trained": trained}
-            folder = find_artefact(cache_dir(), configs[name]) if trained else None
-            if folder is not None and f"{folder.name}.work" in in_progress:
+            folder = find_artefact(cache_dir(), configs[name])
+            if trained and folder is not None and f"{folder.name}.work" in in_progress:
                 out[name]["resumed_from"] = in_progress[f"{folder.name}.work"]  # its seconds time the rest only
+            if folder is not None and (sittings := training_sittings(folder)):
+                out[name]["sittings"] = sittings
             _log(f"{point.key}: {name} ready in {out[name]['seconds']:.1f} s")
     return out
 

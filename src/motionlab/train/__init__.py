@@ -8,6 +8,7 @@ from .cache import (
     load_result,
     load_trained,
     train_or_load,
+    training_sittings,
 )
 from .checkpoint import latest_checkpoint, list_checkpoints, load_checkpoint, load_weights, save_checkpoint
 from .data import WindowDataset, collate_clips, crop_length
@@ -42,4 +43,5 @@ __all__ = [
     "seeded",
     "to_device",
     "train_or_load",
+    "training_sittings",
 ]

@@ -11,6 +11,9 @@ A finished artefact records the SHA-256 of its weights in ``config.json`` (``"sh
 load: a truncated, garbage or bit-flipped ``model.safetensors`` (or an unreadable ``config.json``) raises
 :class:`DamagedArtefactError` naming the file. :func:`train_or_load` then moves the folder aside, to
 ``<hash>.damaged-<time>``, and trains again; :func:`load_trained` (loading only) stops with that error.
+A finished artefact also keeps the trainer's sittings (``"sittings"`` in ``config.json``, :func:`training_sittings`):
+how many steps each process that trained it ran, in how many seconds, on what hardware.
+
 Artefacts written before checksums existed are accepted once if their weights load and are all finite;
 their checksum is recorded then, so later loads verify them too.
 
@@ -40,7 +43,7 @@ from torch import nn
 from ..paths import cache_path
 from ..precision import resolve_precision
 from ..profiles import get_profile
-from .checkpoint import load_weights, save_weights
+from .checkpoint import latest_checkpoint, load_weights, save_weights
 from .device import get_device
 from .distributed import barrier, current_context
 
@@ -346,6 +349,22 @@ def train_or_load(
     return model.to(get_device(device)).eval()
 
 
+def _checkpointed_sittings(work: Path) -> list[dict[str, Any]]:
+    """The sittings the newest checkpoint in ``work`` lists ([] where training kept no checkpoint)."""
+    newest = latest_checkpoint(work)
+    if newest is None:
+        return []
+    return json.loads((newest / "meta.json").read_text()).get("sittings", [])
+
+
+def training_sittings(folder: str | os.PathLike) -> list[dict[str, Any]]:
+    """The sittings that trained the finished artefact in ``folder``, oldest first: ``{"steps": [first, last],
+    "seconds": ..., "device": "cpu" | "cuda", "name": ..., ...}`` each (seconds None where a checkpoint written
+    before sittings were kept resumed it). [] for an artefact trained without checkpoints or before they existed."""
+    info = json.loads((Path(folder) / "config.json").read_text())
+    return list(info.get("sittings", []))
+
+
 def _publish(final: Path, work: Path, model: nn.Module, result: Any, name: str, config: Any, profile, extra) -> None:
     """Write the finished artefact under a temporary name, rename it into place, drop the checkpoints."""
     tmp = final.with_name(f".{final.name}.tmp-{uuid.uuid4().hex[:8]}")
@@ -361,6 +380,8 @@ def _publish(final: Path, work: Path, model: nn.Module, result: Any, name: str, 
             "extra": extra or {},
             "sha256": file_sha256(tmp / "model.safetensors"),
         }
+        if sittings := _checkpointed_sittings(work):
+            info["sittings"] = sittings
         (tmp / "config.json").write_text(json.dumps(info, indent=1, default=str))
         (tmp / "result.json").write_text(json.dumps(result, indent=1, default=str))
         if final.exists():  # retrain=True over an old artefact

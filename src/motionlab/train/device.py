@@ -29,6 +29,15 @@ def get_device(device: str | torch.device | None = None) -> torch.device:
     return dev
 
 
+def device_name(device: torch.device) -> str:
+    """What a record calls the hardware behind ``device``: the GPU's name on CUDA, else the CPU's model and flags."""
+    if device.type == "cuda":
+        return torch.cuda.get_device_name(device)
+    from ..precision import read_cpu_info
+
+    return read_cpu_info().summary
+
+
 def seed_everything(seed: int) -> torch.Generator:
     """Seed Python, NumPy and torch's global RNGs and return a fresh CPU ``torch.Generator`` seeded with ``seed``.
 

@@ -28,6 +28,10 @@ process with a ``workdir`` lets the step under way finish, writes a checkpoint a
 ``KeyboardInterrupt``, so the next run resumes where this one stopped instead of at the last periodic checkpoint.
 A second Ctrl-C interrupts at once.
 
+Each checkpoint also lists the model's *sittings* (:attr:`Trainer.sittings`): every :meth:`Trainer.fit` that
+trained it so far, with its steps, wall seconds and hardware. A model trained over several processes (resumed after
+a Ctrl-C, or lease after lease) thus keeps the time its whole training took, and where each part ran.
+
     trainer = Trainer(model, loss_fn, dataset.batches(64), TrainConfig(steps=2000), workdir=folder)
     history = trainer.fit()          # resumes from folder's latest checkpoint if there is one
 """
@@ -39,6 +43,7 @@ import math
 import os
 import signal
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -52,7 +57,7 @@ from ..checks import trusted_values
 from ..precision import autocast, resolve_precision
 from ..settings import env_deterministic, use_deterministic_kernels
 from .checkpoint import latest_checkpoint, load_checkpoint, prune_checkpoints, save_checkpoint
-from .device import get_device, to_device
+from .device import device_name, get_device, to_device
 from .distributed import (
     average_gradients,
     average_scalars,
@@ -166,6 +171,9 @@ class Trainer:
         self.noise_generator = torch.Generator(device=self.device).manual_seed(config.seed + 1 + 1000 * self.dist.rank)
         self.step = 0
         self._saved_step: int | None = None
+        # every fit() that trained this model, oldest first (checkpointed), and the one under way: (first step, start)
+        self.sittings: list[dict[str, Any]] = []
+        self._sitting: tuple[int, float] | None = None
         self.history: list[dict[str, float]] = []
         # running sums of the logged terms since the last log line, in float64 on the device (read at log steps)
         self._acc: dict[str, torch.Tensor] = {}
@@ -246,8 +254,12 @@ class Trainer:
         ``KeyboardInterrupt`` is raised (see the module's docstring)."""
         # Ranks of a distributed run could see the signal at different steps and then disagree on where to save.
         deferrable = self.workdir is not None and self.dist.world_size == 1
-        with DeferredInterrupt(enabled=deferrable) as interrupt:
-            self._fit(until, interrupt)
+        self._sitting = (self.step, time.perf_counter())
+        try:
+            with DeferredInterrupt(enabled=deferrable) as interrupt:
+                self._fit(until, interrupt)
+        finally:
+            self.sittings, self._sitting = self._sittings_so_far(), None
         if interrupt.requested:
             raise KeyboardInterrupt(f"training stopped at step {self.step:,}; its checkpoint resumes it")
         return self.history
@@ -300,6 +312,17 @@ class Trainer:
         self.model.train()
         return {f"val_{k}": float(v) for k, v in metrics.items()}
 
+    def _sittings_so_far(self) -> list[dict[str, Any]]:
+        """:attr:`sittings` with the fit() under way as far as it has come (a fit that trained no step adds none)."""
+        if self._sitting is None or self.step == self._sitting[0]:
+            return list(self.sittings)
+        first, start = self._sitting
+        where = {"device": self.device.type, "name": device_name(self.device), "ranks": self.dist.world_size}
+        if self.device.type == "cpu":
+            where["threads"] = torch.get_num_threads()
+        now = {"steps": [first, self.step], "seconds": round(time.perf_counter() - start, 3), **where}
+        return [*self.sittings, now]
+
     # -- checkpoints -------------------------------------------------------------------------------------------
     def _noise_name(self, rank: int) -> str:
         return "noise" if rank == 0 else f"noise_rank{rank}"
@@ -321,6 +344,7 @@ class Trainer:
             "history": self.history,
             "acc": {k: float(v) for k, v in self._acc.items()},  # this rank's sums (ranks average at the log line)
             "acc_n": self._acc_n,
+            "sittings": self._sittings_so_far(),
         }
         path = self.workdir / f"step_{self.step:08d}"
         if self.dist.is_main:
@@ -340,6 +364,9 @@ class Trainer:
         self.history = list(meta["history"])
         self._acc = {k: torch.tensor(float(v), dtype=torch.float64, device=self.device) for k, v in meta["acc"].items()}
         self._acc_n = int(meta["acc_n"])
+        self.sittings = list(meta.get("sittings", []))
+        if not self.sittings and self.step > 0:  # a checkpoint from before sittings were kept: time unknown
+            self.sittings = [{"steps": [0, self.step], "seconds": None}]
 
 
 class DeferredInterrupt:
