@@ -11,11 +11,11 @@ A finished artefact records the SHA-256 of its weights in ``config.json`` (``"sh
 load: a truncated, garbage or bit-flipped ``model.safetensors`` (or an unreadable ``config.json``) raises
 :class:`DamagedArtefactError` naming the file. :func:`train_or_load` then moves the folder aside, to
 ``<hash>.damaged-<time>``, and trains again; :func:`load_trained` (loading only) stops with that error.
-A finished artefact also keeps the trainer's sittings (``"sittings"`` in ``config.json``, :func:`training_sittings`):
-how many steps each process that trained it ran, in how many seconds, on what hardware.
-
 Artefacts written before checksums existed are accepted once if their weights load and are all finite;
 their checksum is recorded then, so later loads verify them too.
+
+A finished artefact also keeps the trainer's sittings (``"sittings"`` in ``config.json``, :func:`training_sittings`):
+how many steps each process that trained it ran, in how many seconds, on what hardware.
 
 A command that first probes its plan (:func:`cache_probe`, to announce what it would train) and then runs it
 wraps both in :func:`reuse_probed_models`: each model the probe loaded is handed to the command's own load of
