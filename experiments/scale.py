@@ -22,7 +22,9 @@ steps × its step time as an earlier point in ``--out`` measured it on this kind
 GPU benchmark measured the library's training step (``book/data/gpu/*.json``, at the papers' widths and batch, so an
 upper bound for the laptop's narrower networks), else "not predicted" (the benchmark did not time the VQ tokenizer);
 plus the group's scoring time where an earlier point measured it (the evaluations do not grow with the multiple).
-The first GPU run thus predicts from the benchmark and every later one from the points before it.
+The first GPU run thus predicts from the benchmark and every later one from the points before it. A model the cache
+has trained already costs nothing, one with a checkpoint in progress only its steps after it, and a model an earlier
+point of the plan trains (the RVQ that DisCoRD's point and the projection point share) is counted once.
 
 Run by run: a point is the unit of work. A finished point is written at once (atomically) and never redone; a run
 with ``--minutes N`` always does its first pending point, then starts another only while the time left covers the
@@ -62,7 +64,7 @@ from motionlab.data.embedded.generator import VERSION
 from motionlab.evaluation.scale import GROUPS, MULTIPLES, point_changes, scaled_budgets
 from motionlab.io.common import write_text_atomic
 from motionlab.paths import cache_dir
-from motionlab.studies.carry import carried_folders, pack_cache, unpack_cache
+from motionlab.studies.carry import cached_progress, carried_folders, pack_cache, unpack_cache
 from motionlab.studies.scale import (
     Point,
     Rates,
@@ -238,13 +240,14 @@ def main(argv: list[str] | None = None) -> int:
     records = _recorded(args.out, args.profile)
     done = {p.key for p in points if p.key in records}
     rates = measured_rates(list(records.values()), device_type, precision, run)
-    print("\n".join(plan_lines(points, args.profile, rates, done, args.minutes)), flush=True)
+    if args.carry_in is not None:  # first: the plan counts the steps its checkpoints have trained
+        unpacked = unpack_cache(args.carry_in, cache_dir())
+        _log(f"carried in: {', '.join(unpacked) if unpacked else 'nothing'}")
+    progress = cached_progress(cache_dir(), precision)
+    print("\n".join(plan_lines(points, args.profile, rates, done, args.minutes, progress)), flush=True)
     if args.plan:
         return 0
     args.out.mkdir(parents=True, exist_ok=True)
-    if args.carry_in is not None:
-        unpacked = unpack_cache(args.carry_in, cache_dir())
-        _log(f"carried in: {', '.join(unpacked) if unpacked else 'nothing'}")
     try:
         return _run_points(args, points, records, done, rates, run, precision, device_type)
     except KeyboardInterrupt:  # the lease's hard stop: a training checkpoints the step it stopped at
@@ -267,7 +270,7 @@ def _run_points(args, points, records, done, rates, run, precision, device_type)
         if point.key in done:
             _log(f"{point.key}: recorded already")
             continue
-        predicted = point_seconds(point, args.profile, rates)
+        predicted = point_seconds(point, args.profile, rates, cached_progress(cache_dir(), precision))
         if deadline is not None and finished and _no_time(deadline, predicted, args.carry_out is not None):
             left = [p.key for p in points if p.key not in done]
             print(f"stopping: {len(left)} point(s) left ({', '.join(left)}); run again to continue", flush=True)

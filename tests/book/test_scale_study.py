@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import math
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -19,7 +21,15 @@ from motionlab.report.gpu import load_gpu_runs
 from motionlab.report.render import claims_table
 from motionlab.report.scale import load_scale_study, scale_study_note, scale_verdicts, study_scale
 from motionlab.results import CLAIMS
-from motionlab.studies.scale import Point, Rates, auto_batch_factor, measured_rates, plan_point, point_seconds
+from motionlab.studies.scale import (
+    Point,
+    Rates,
+    auto_batch_factor,
+    measured_rates,
+    plan_lines,
+    plan_point,
+    point_seconds,
+)
 
 REPO = Path(__file__).resolve().parents[2]
 SCRIPT = REPO / "experiments" / "scale.py"
@@ -143,6 +153,34 @@ def test_a_model_trained_run_by_run_is_timed_over_its_sittings_on_that_device():
     assert measured_rates([record | {"device_type": "cpu"}], "cpu", "bf16").steps["tokenizer/vq", 64][0] == 90.0
 
 
+def test_a_plan_counts_what_the_cache_trained_and_a_shared_model_once():
+    """A model the cache has finished costs nothing, one with a checkpoint only its steps after it, and the RVQ that
+    DisCoRD's point and the projection point share is planned once, by the point that trains it first."""
+    from motionlab.studies.carry import config_key
+    from motionlab.studies.scale import _configs
+
+    rates = Rates("bf16", None, {("tokenizer/rvq", 32): (2.0, "x"), ("discord/rvq", 32): (4.0, "x")})
+    rvq, decoder = (config_key(_configs(Point("discord", 100), "laptop")[n]) for n in ("tokenizer/rvq", "discord/rvq"))
+    fresh = {m.name: m for m in plan_point(Point("discord", 100), "laptop", rates)}
+    assert fresh["discord/rvq"].done == 0 and fresh["discord/rvq"].seconds == pytest.approx(400_000 * 4e-3)
+    resumed = {m.name: m for m in plan_point(Point("discord", 100), "laptop", rates, {decoder: 100_000, rvq: math.inf})}
+    assert resumed["tokenizer/rvq"].done == 200_000 and resumed["discord/rvq"].done == 100_000
+    assert resumed["discord/rvq"].seconds == pytest.approx(300_000 * 4e-3)
+    assert point_seconds(Point("discord", 100), "laptop", rates, {decoder: 100_000, rvq: math.inf}) == pytest.approx(
+        300_000 * 4e-3
+    )
+
+    points = [Point("discord", 100), Point("projection", 100)]
+    lines = "\n".join(plan_lines(points, "laptop", rates, progress={decoder: 100_000}))
+    assert (
+        "tokenizer/rvq: 200,000 steps × batch 32: 6.67 min (2 ms measured in x)" in lines
+    )  # trained by discord-x100 ...
+    assert "tokenizer/rvq: 200,000 steps × batch 32: trained by discord-x100 first" in lines  # ... not again
+    assert "20.00 min for the 300,000 steps after the checkpoint at 100,000" in lines
+    lines = "\n".join(plan_lines(points[1:], "laptop", rates, progress={rvq: math.inf}))
+    assert "tokenizer/rvq: 200,000 steps × batch 32: in the cache" in lines
+
+
 def test_bad_arguments_are_clear_errors(capsys):
     script = _script()
     for args, message in (
@@ -200,9 +238,9 @@ def test_every_run_prints_its_plan_first(smoke):
     plan = smoke["first"].stdout.splitlines()
     assert plan[0].startswith("scale study plan, profile smoke") and "no GPU benchmark" in plan[1]  # a CPU run
     assert any("t2m/dynamic: 150 steps × batch 16: not predicted" in line for line in plan)
-    # planned for a GPU in bf16 (possible without one): the benchmark's measured step times
-    out = str(smoke["home"] / "none")
-    gpu = _run("--smoke", "--plan", "--device", "cuda", "--out", out, home=smoke["home"], MOTIONLAB_PRECISION="bf16")
+    # planned for a bare GPU machine in bf16 (possible without one): the benchmark's measured step times
+    out, bare = str(smoke["home"] / "none"), smoke["home"] / "bare"
+    gpu = _run("--smoke", "--plan", "--device", "cuda", "--out", out, home=bare, MOTIONLAB_PRECISION="bf16")
     gpu = gpu.stdout
     assert "the GPU benchmark 2026-12-04-h200-note.json (NVIDIA H200)" in gpu.splitlines()[1]
     assert any("t2m/dynamic: 150 steps × batch 16" in line and "98.2 ms" in line for line in gpu.splitlines())
@@ -286,11 +324,21 @@ def test_the_carried_cache_holds_what_pending_points_need_and_newest_checkpoints
     for step in (100, 200):
         (work / f"step_{step:08d}").mkdir(parents=True)
         (work / f"step_{step:08d}" / "model.safetensors").write_bytes(bytes([step % 256]) * 4)
+    (work / "config.json").write_text(json.dumps({"name": "discord", "config": {"steps": 400}}))  # what it trains
     (cache / "models" / "vq" / "laptop" / ".ddd.tmp-1234").mkdir()  # a half-written artefact
     folders = carry.carried_folders(cache, [{"steps": 10, "shape": [1, 2]}])
     assert [f.name for f in folders] == ["ccc.work", "aaa"]
     assert carry.checkpoints_in_progress(cache) == {"ccc.work": 200}
     assert carry.find_artefact(cache, {"steps": 20}).name == "bbb" and carry.find_artefact(cache, {"x": 1}) is None
+    progress = carry.cached_progress(cache)  # a finished model: all its steps; one in progress: its checkpoint's
+    assert progress == {carry.config_key(c): n for c, n in (({"steps": 400}, 200), ({"steps": 10, "shape": [1, 2]},
+                        math.inf), ({"steps": 20}, math.inf))}  # fmt: skip
+    bf16 = cache / "models" / "vq" / "laptop" / "eee"  # the same config trained in another precision
+    bf16.mkdir()
+    (bf16 / "config.json").write_text(json.dumps({"config": {"steps": 30}, "extra": {"precision": "bf16"}}))
+    assert carry.config_key({"steps": 30}) in carry.cached_progress(cache, "bf16")
+    assert carry.config_key({"steps": 30}) not in carry.cached_progress(cache, "fp32")
+    shutil.rmtree(bf16)
 
     out = tmp_path / "out"
     parts, line = carry.pack_cache(cache, folders, out)
@@ -299,7 +347,8 @@ def test_the_carried_cache_holds_what_pending_points_need_and_newest_checkpoints
     _artefact(fresh, "rvq", "aaa", {"steps": 10}, size=3)  # already finished here: kept as it is
     assert carry.unpack_cache(out, fresh) == ["models/discord/laptop/ccc.work"]
     assert (fresh / "models" / "rvq" / "laptop" / "aaa" / "model.safetensors").read_bytes() == bytes(3)
-    assert sorted(p.name for p in (fresh / "models" / "discord" / "laptop" / "ccc.work").iterdir()) == ["step_00000200"]
+    unpacked_work = sorted(p.name for p in (fresh / "models" / "discord" / "laptop" / "ccc.work").iterdir())
+    assert unpacked_work == ["config.json", "step_00000200"]  # the newest checkpoint and what it trains
     assert carry.unpack_cache(tmp_path / "nothing", fresh) == []
 
     monkeypatch.setattr(carry, "PART_BYTES", 64)  # an archive too large for the files a lease returns

@@ -1,5 +1,6 @@
 """train_or_load: trains once, caches by config hash, never loads a half-finished run."""
 
+import json
 from dataclasses import dataclass
 
 import pytest
@@ -52,6 +53,7 @@ class Counter:
 
     def __call__(self, model, workdir):
         self.calls += 1
+        self.work_info = json.loads((workdir / "config.json").read_text())  # what a training in progress trains
         trainer = Trainer(model, loss_fn, batch_fn, model_config(model).train, workdir=workdir, progress=False)
         self.started_at = trainer.step
         if self.fail_at is not None:
@@ -201,3 +203,10 @@ def test_a_finished_artefact_keeps_the_sittings_that_trained_it():
     sittings = training_sittings(artefact_dir("toy", config))
     assert [s["steps"] for s in sittings] == [[0, 4], [4, 10]]
     assert all(s["seconds"] > 0 and s["device"] == "cpu" for s in sittings)
+
+
+def test_a_training_in_progress_says_what_it_trains():
+    config, train = ToyConfig(hidden=3), Counter()
+    train_or_load("toy", config, build, train, "smoke")
+    assert train.work_info["config"] == {"hidden": 3, "train": train.work_info["config"]["train"]}
+    assert train.work_info["hash"] == artefact_dir("toy", config, "smoke").name

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 import tarfile
 from collections.abc import Iterable
 from pathlib import Path
@@ -25,7 +26,7 @@ ARCHIVE = "scale-cache.tgz"  # its parts: scale-cache.tgz.00, .01, ...
 PART_BYTES = 15 * 2**20  # under the 16 MiB a leased machine returns per file
 
 
-def _normalised(config: Any) -> str:
+def config_key(config: Any) -> str:
     """A config as one comparable string (the artefact's config.json stores tuples as lists)."""
     return json.dumps(json.loads(json.dumps(config, default=str)), sort_keys=True)
 
@@ -34,14 +35,14 @@ def carried_folders(cache_root: str | Path, pending_configs: Iterable[dict]) -> 
     """The folders under ``cache_root/models`` the next run needs: finished artefacts whose config is one of
     ``pending_configs`` (the JSON configs of the models the pending points train or load) and every training in
     progress (``<hash>.work``)."""
-    wanted = {_normalised(c) for c in pending_configs}
+    wanted = {config_key(c) for c in pending_configs}
     in_progress = [w for w in sorted((Path(cache_root) / "models").glob("*/*/*.work")) if _newest_checkpoint(w)]
     return sorted(in_progress + [folder for folder, config in _finished(cache_root) if config in wanted])
 
 
 def find_artefact(cache_root: str | Path, config: Any) -> Path | None:
     """The finished artefact folder under ``cache_root/models`` trained with ``config`` (a JSON config), or None."""
-    wanted = _normalised(config)
+    wanted = config_key(config)
     return next((folder for folder, found in _finished(cache_root) if found == wanted), None)
 
 
@@ -51,7 +52,7 @@ def _finished(cache_root: str | Path):
     for info in sorted((Path(cache_root) / "models").glob("*/*/*/config.json")):
         name = info.parent.name
         if not (name.startswith(".") or name.endswith(".work") or ".damaged-" in name):
-            yield info.parent, _normalised(json.loads(info.read_text()).get("config"))
+            yield info.parent, config_key(json.loads(info.read_text()).get("config"))
 
 
 def checkpoints_in_progress(cache_root: str | Path) -> dict[str, int]:
@@ -62,6 +63,28 @@ def checkpoints_in_progress(cache_root: str | Path) -> dict[str, int]:
         if newest is not None:
             found[work.name] = int(newest.name.removeprefix("step_"))
     return found
+
+
+def cached_progress(cache_root: str | Path, precision: str | None = None) -> dict[str, float]:
+    """How far the cache under ``cache_root`` has trained each config (in ``precision``, where given: a model trained
+    in another is another artefact): ``{config_key(config): steps}``, the newest checkpoint's step for a training in
+    progress (one whose ``.work`` folder says what it trains) and ``inf`` for a finished model. A plan subtracts
+    these steps from what a point still has to train."""
+    progress: dict[str, float] = {}
+    for work in (Path(cache_root) / "models").glob("*/*/*.work"):
+        newest, info_path = _newest_checkpoint(work), work / "config.json"
+        if newest is not None and info_path.is_file():
+            info = json.loads(info_path.read_text())
+            if _in_precision(info, precision):
+                progress[config_key(info.get("config"))] = int(newest.name.removeprefix("step_"))
+    for folder, config in _finished(cache_root):
+        if _in_precision(json.loads((folder / "config.json").read_text()), precision):
+            progress[config] = math.inf
+    return progress
+
+
+def _in_precision(info: dict, precision: str | None) -> bool:
+    return precision is None or (info.get("extra") or {}).get("precision", precision) == precision
 
 
 def _newest_checkpoint(work: Path) -> Path | None:
@@ -84,8 +107,11 @@ def pack_cache(
     buffer = io.BytesIO()
     with tarfile.open(fileobj=buffer, mode="w:gz") as archive:
         for folder in folders:
-            source = _newest_checkpoint(folder) if folder.name.endswith(".work") else folder
-            archive.add(source, arcname=str(source.relative_to(cache_root)))
+            sources = [folder]
+            if folder.name.endswith(".work"):  # its newest checkpoint and what it trains
+                sources = [_newest_checkpoint(folder), *[p for p in [folder / "config.json"] if p.is_file()]]
+            for source in sources:
+                archive.add(source, arcname=str(source.relative_to(cache_root)))
     data = buffer.getvalue()
     parts = -(-len(data) // PART_BYTES)
     mib = len(data) / 2**20
@@ -127,8 +153,10 @@ def unpack_cache(in_dir: str | Path, cache_root: str | Path) -> list[str]:
 __all__ = [
     "ARCHIVE",
     "PART_BYTES",
+    "cached_progress",
     "carried_folders",
     "checkpoints_in_progress",
+    "config_key",
     "find_artefact",
     "pack_cache",
     "unpack_cache",

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -23,6 +23,8 @@ from motionlab.evaluation.scale import (
     scaled_budgets,
     training_steps,
 )
+
+from .carry import config_key
 
 # The GPU benchmark's name for each kind of model it timed (``book/data/gpu/*.json``, :mod:`motionlab.report.gpu`).
 # The VQ tokenizer was not timed: its points have no predicted time rather than a borrowed one.
@@ -47,8 +49,9 @@ class PlannedModel:
     name: str
     steps: int
     batch: int
-    seconds: float | None
+    seconds: float | None  # for the steps left
     why: str  # where the prediction comes from, or why there is none
+    done: int = 0  # steps the cache has trained already (a checkpoint in progress; all of them: finished)
 
 
 @dataclass(frozen=True)
@@ -147,35 +150,50 @@ def _step_ms(model: dict, device_type: str) -> float | None:
     return 1e3 * model["seconds"] / timed if model.get("trained") and timed > 0 else None
 
 
-def plan_point(point: Point, profile: str, rates: Rates) -> list[PlannedModel]:
-    """Each model of ``point`` with its steps, batch and predicted training seconds: steps × the step time measured
-    in an earlier point here, else the library's step the GPU benchmark timed for its kind at the papers' widths and
-    a batch at least this one's (an upper bound for the laptop's narrower networks). None where neither measured it."""
+def plan_point(
+    point: Point, profile: str, rates: Rates, progress: Mapping[str, float] | None = None
+) -> list[PlannedModel]:
+    """Each model of ``point`` with its steps, batch and predicted training seconds: the steps not yet trained (by
+    ``progress``, :func:`motionlab.studies.carry.cached_progress`) × the step time measured in an earlier point here,
+    else the library's step the GPU benchmark timed for its kind at the papers' widths and a batch at least this
+    one's (an upper bound for the laptop's narrower networks). None where neither measured it."""
     planned = []
     for name, config in _configs(point, profile).items():
         steps, batch = training_steps(config)
+        done = int(min(steps, (progress or {}).get(config_key(config), 0)))
         ms, source = rates.step_ms(name, batch)
-        seconds = None if ms is None else steps * ms / 1e3
-        planned.append(PlannedModel(name, steps, batch, seconds, source))
+        seconds = None if ms is None else (steps - done) * ms / 1e3
+        planned.append(PlannedModel(name, steps, batch, seconds, source, done))
     return planned
 
 
 def predicted_seconds(planned: list[PlannedModel], scoring: float | None = 0.0) -> float | None:
-    """A point's predicted seconds (its training, plus ``scoring`` where known), or None where any of its models has
-    no measured rate."""
-    seconds = [m.seconds for m in planned]
+    """A point's predicted seconds (its training left, plus ``scoring`` where known), or None where a model with
+    steps left has no measured rate."""
+    seconds = [0.0 if m.done == m.steps else m.seconds for m in planned]
     return None if any(s is None for s in seconds) else sum(seconds) + (scoring or 0.0)
 
 
-def point_seconds(point: Point, profile: str, rates: Rates) -> float | None:
-    """A point's predicted seconds, training and (where an earlier point measured it) scoring."""
+def point_seconds(
+    point: Point, profile: str, rates: Rates, progress: Mapping[str, float] | None = None
+) -> float | None:
+    """A point's predicted seconds, training left (by ``progress``) and (where an earlier point measured it)
+    scoring."""
     scoring = rates.scoring.get(point.group, (None, ""))[0]
-    return predicted_seconds(plan_point(point, profile, rates), scoring)
+    return predicted_seconds(plan_point(point, profile, rates, progress), scoring)
 
 
-def plan_lines(points: list[Point], profile: str, rates: Rates, done=(), minutes: float | None = None) -> list[str]:
+def plan_lines(
+    points: list[Point],
+    profile: str,
+    rates: Rates,
+    done=(),
+    minutes: float | None = None,
+    progress: Mapping[str, float] | None = None,
+) -> list[str]:
     """The plan as lines for a reader: each point, its models' steps × batch and predicted time, and the total; a
-    point predicted to outlast ``minutes`` (one run) is flagged."""
+    point predicted to outlast ``minutes`` (one run) is flagged. ``progress`` (:func:`~.carry.cached_progress`) is
+    what the cache has trained already; a model an earlier pending point trains costs a later one nothing."""
     run = rates.run
     if run is not None:
         source = f"else the library's train_step in the GPU benchmark {run.path.name} ({run.machine['device']})"
@@ -183,26 +201,42 @@ def plan_lines(points: list[Point], profile: str, rates: Rates, done=(), minutes
         source = "no GPU benchmark (it predicts GPU runs only)"
     lines = [f"scale study plan, profile {profile}, {rates.precision}; step times from the points recorded here,"]
     lines.append(f"  {source}:")
+    progress = dict(progress or {})
+    trained_by: dict[str, str] = {}  # config -> the pending point that trains it first
     total, unknown = 0.0, 0
     for point in points:
-        planned = plan_point(point, profile, rates)
+        pending = point.key not in done
+        planned = plan_point(point, profile, rates, progress if pending else {})
         scoring, scored_in = rates.scoring.get(point.group, (None, ""))
         seconds = predicted_seconds(planned, scoring)
-        status = "recorded" if point.key in done else (f"~{seconds / 60:.1f} min" if seconds is not None else "?")
-        if point.key not in done and minutes is not None and seconds is not None and seconds > 60 * minutes:
+        status = "recorded" if not pending else (f"~{seconds / 60:.1f} min" if seconds is not None else "?")
+        if pending and minutes is not None and seconds is not None and seconds > 60 * minutes:
             status += f" (more than --minutes {minutes:g}: it may not finish in one run)"
         lines.append(f"  {point.key} (batch ×{point.batch_factor}): {status}")
+        configs = _configs(point, profile)
         for m in planned:
-            time_text = f"{m.seconds / 60:.2f} min" if m.seconds is not None else "not predicted"
-            lines.append(f"    {m.name}: {m.steps:,} steps × batch {m.batch}: {time_text} ({m.why})")
+            key = config_key(configs[m.name])
+            lines.append(f"    {m.name}: {m.steps:,} steps × batch {m.batch}: {_model_plan(m, trained_by.get(key))}")
+            if pending and key not in trained_by and m.done < m.steps:
+                trained_by[key], progress[key] = point.key, float("inf")
         scored = f"{scoring / 60:.2f} min (measured in {scored_in})" if scoring is not None else "not predicted"
         lines.append(f"    scoring: {scored}")
-        if point.key not in done:
+        if pending:
             total += seconds or 0.0
             unknown += seconds is None
     tail = f"; {unknown} point(s) with a model nothing has timed" if unknown else ""
     lines.append(f"  to do: ~{total / 60:.1f} min predicted{tail}")
     return lines
+
+
+def _model_plan(m: PlannedModel, trained_by: str | None) -> str:
+    """One model's line of the plan after its steps × batch."""
+    if m.done == m.steps:
+        return f"trained by {trained_by} first" if trained_by else "in the cache"
+    time_text = f"{m.seconds / 60:.2f} min" if m.seconds is not None else "not predicted"
+    if m.done:
+        time_text += f" for the {m.steps - m.done:,} steps after the checkpoint at {m.done:,}"
+    return f"{time_text} ({m.why})"
 
 
 # ------------------------------------------------------------------------------------------- train and score

@@ -1,7 +1,8 @@
 """Train once, load ever after: trained models addressed by (name, profile, config hash).
 
     <cache>/models/<name>/<profile>/<hash>/        finished artefact: model.safetensors, config.json, result.json
-    <cache>/models/<name>/<profile>/<hash>.work/   checkpoints of a run in progress (resumed if interrupted)
+    <cache>/models/<name>/<profile>/<hash>.work/   checkpoints of a run in progress (resumed if interrupted) and
+                                                   its config.json (what it trains, before it is finished)
 
 The hash covers the whole config (a dataclass) plus ``extra`` (e.g. which data it was trained on), so
 any change trains a new model. The finished folder appears by one atomic rename after training, so a
@@ -340,11 +341,15 @@ def train_or_load(
             barrier(current_context())
     check_may_train(f"model {name!r} ({get_profile(profile)}, {final.name})")
     work = final.with_name(final.name + ".work")
+    info = _artefact_info(final, name, config, profile, _keyed(extra, device, precision))
+    if current_context().is_main:  # says what a training in progress trains (a plan counts its steps done)
+        work.mkdir(parents=True, exist_ok=True)
+        _write_json_atomic(work / "config.json", info)
     model = build_fn(config)
     result = train_fn(model, work)
     ctx = current_context()
     if ctx.is_main:  # under torchrun every rank trained the same weights; one writes them
-        _publish(final, work, model, result, name, config, profile, _keyed(extra, device, precision))
+        _publish(final, work, model, result, info)
     barrier(ctx)
     return model.to(get_device(device)).eval()
 
@@ -365,21 +370,25 @@ def training_sittings(folder: str | os.PathLike) -> list[dict[str, Any]]:
     return list(info.get("sittings", []))
 
 
-def _publish(final: Path, work: Path, model: nn.Module, result: Any, name: str, config: Any, profile, extra) -> None:
+def _artefact_info(final: Path, name: str, config: Any, profile, extra: dict[str, Any]) -> dict[str, Any]:
+    """What ``config.json`` says of an artefact (a finished one adds its checksum and sittings)."""
+    return {
+        "name": name,
+        "profile": get_profile(profile),
+        "hash": final.name,
+        "type": type(config).__name__,
+        "config": config_dict(config),
+        "extra": extra,
+    }
+
+
+def _publish(final: Path, work: Path, model: nn.Module, result: Any, info: dict[str, Any]) -> None:
     """Write the finished artefact under a temporary name, rename it into place, drop the checkpoints."""
     tmp = final.with_name(f".{final.name}.tmp-{uuid.uuid4().hex[:8]}")
     tmp.mkdir(parents=True)
     try:
         save_weights(model.state_dict(), tmp / "model.safetensors")
-        info = {
-            "name": name,
-            "profile": get_profile(profile),
-            "hash": final.name,
-            "type": type(config).__name__,
-            "config": config_dict(config),
-            "extra": extra or {},
-            "sha256": file_sha256(tmp / "model.safetensors"),
-        }
+        info = {**info, "sha256": file_sha256(tmp / "model.safetensors")}
         if sittings := _checkpointed_sittings(work):
             info["sittings"] = sittings
         (tmp / "config.json").write_text(json.dumps(info, indent=1, default=str))
