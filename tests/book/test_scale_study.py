@@ -338,6 +338,8 @@ def test_the_carried_cache_holds_what_pending_points_need_and_newest_checkpoints
     (bf16 / "config.json").write_text(json.dumps({"config": {"steps": 30}, "extra": {"precision": "bf16"}}))
     assert carry.config_key({"steps": 30}) in carry.cached_progress(cache, "bf16")
     assert carry.config_key({"steps": 30}) not in carry.cached_progress(cache, "fp32")
+    assert carry.find_artefact(cache, {"steps": 30}, "bf16") == bf16
+    assert carry.find_artefact(cache, {"steps": 30}, "fp32") is None
     shutil.rmtree(bf16)
 
     out = tmp_path / "out"

@@ -40,10 +40,14 @@ def carried_folders(cache_root: str | Path, pending_configs: Iterable[dict]) -> 
     return sorted(in_progress + [folder for folder, config in _finished(cache_root) if config in wanted])
 
 
-def find_artefact(cache_root: str | Path, config: Any) -> Path | None:
-    """The finished artefact folder under ``cache_root/models`` trained with ``config`` (a JSON config), or None."""
+def find_artefact(cache_root: str | Path, config: Any, precision: str | None = None) -> Path | None:
+    """The finished artefact folder under ``cache_root/models`` trained with ``config`` (a JSON config), in
+    ``precision`` where given, or None."""
     wanted = config_key(config)
-    return next((folder for folder, found in _finished(cache_root) if found == wanted), None)
+    for folder, found in _finished(cache_root):
+        if found == wanted and _in_precision(json.loads((folder / "config.json").read_text()), precision):
+            return folder
+    return None
 
 
 def _finished(cache_root: str | Path):

@@ -248,12 +248,14 @@ def train_point(point: Point, dataset, profile: str, device: str | None) -> dict
     ones (:func:`motionlab.train.training_sittings`), so a model trained run by run keeps its whole time."""
     from motionlab import models
     from motionlab.paths import cache_dir
-    from motionlab.train import training_sittings
+    from motionlab.precision import resolve_precision
+    from motionlab.train import get_device, training_sittings
 
     from .carry import checkpoints_in_progress, find_artefact
 
     out = {}
     configs = _configs(point, profile)
+    precision = resolve_precision(None, get_device(device))  # what these models train in: part of their cache key
     in_progress = checkpoints_in_progress(cache_dir())  # trainings a carried-in cache resumes
     with scaled_budgets(point.multiple, point.batch_factor, profile):
         for name in group_models(point.group):
@@ -262,7 +264,7 @@ def train_point(point: Point, dataset, profile: str, device: str | None) -> dict
             start = time.perf_counter()
             models.load(name, dataset, profile, device=device)
             out[name] = {"seconds": round(time.perf_counter() - start, 2), "trained": trained}
-            folder = find_artefact(cache_dir(), configs[name])
+            folder = find_artefact(cache_dir(), configs[name], precision)
             if trained and folder is not None and f"{folder.name}.work" in in_progress:
                 out[name]["resumed_from"] = in_progress[f"{folder.name}.work"]  # its seconds time the rest only
             if folder is not None and (sittings := training_sittings(folder)):
