@@ -78,6 +78,7 @@ from motionlab.studies.scale import (
     score_point,
     train_point,
 )
+from motionlab.train.device import device_name, get_device
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "book" / "data" / "scale" / f"embedded-v{VERSION}"
@@ -87,13 +88,6 @@ SMOKE_MULTIPLES = (0.5, 1.0)  # of the smoke profile's seconds-long budgets: pro
 
 def _log(text: str) -> None:
     print(text, file=sys.stderr, flush=True)
-
-
-def _device_name(device: str) -> str:
-    """What the record calls the machine: the GPU's name on CUDA, else the CPU's."""
-    if device.startswith("cuda"):
-        return torch.cuda.get_device_name(torch.device(device))
-    return machine_stamp()["cpu"]
 
 
 def _precision(device: str) -> str:
@@ -152,7 +146,7 @@ def run_point(point: Point, profile: str, device: str, rates: Rates) -> dict:
         "batch_factor": point.batch_factor,
         "profile": profile,
         **stamp,
-        "device": _device_name(device),
+        "device": device_name(get_device(device)),
         "device_type": device.split(":")[0],
         "precision": rates.precision,
         "torch": torch.__version__,

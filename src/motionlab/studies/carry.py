@@ -36,7 +36,7 @@ def carried_folders(cache_root: str | Path, pending_configs: Iterable[dict]) -> 
     ``pending_configs`` (the JSON configs of the models the pending points train or load) and every training in
     progress (``<hash>.work``)."""
     wanted = {config_key(c) for c in pending_configs}
-    in_progress = [w for w in sorted((Path(cache_root) / "models").glob("*/*/*.work")) if _newest_checkpoint(w)]
+    in_progress = sorted(work for work, _ in _in_progress(cache_root))
     return sorted(in_progress + [folder for folder, config in _finished(cache_root) if config in wanted])
 
 
@@ -44,29 +44,32 @@ def find_artefact(cache_root: str | Path, config: Any, precision: str | None = N
     """The finished artefact folder under ``cache_root/models`` trained with ``config`` (a JSON config), in
     ``precision`` where given, or None."""
     wanted = config_key(config)
-    for folder, found in _finished(cache_root):
-        if found == wanted and _in_precision(json.loads((folder / "config.json").read_text()), precision):
-            return folder
-    return None
+    return next((folder for folder, found in _finished(cache_root, precision) if found == wanted), None)
 
 
-def _finished(cache_root: str | Path):
-    """``(folder, normalised config)`` of every finished artefact under ``cache_root/models``: not a training in
-    progress (``.work``), a half-written one (``.<hash>.tmp-…``) or one moved aside (``.damaged-…``)."""
-    for info in sorted((Path(cache_root) / "models").glob("*/*/*/config.json")):
-        name = info.parent.name
+def _finished(cache_root: str | Path, precision: str | None = None):
+    """``(folder, normalised config)`` of every finished artefact under ``cache_root/models`` (trained in
+    ``precision``, where given): not a training in progress (``.work``), a half-written one (``.<hash>.tmp-…``) or
+    one moved aside (``.damaged-…``)."""
+    for info_path in sorted((Path(cache_root) / "models").glob("*/*/*/config.json")):
+        name = info_path.parent.name
         if not (name.startswith(".") or name.endswith(".work") or ".damaged-" in name):
-            yield info.parent, config_key(json.loads(info.read_text()).get("config"))
+            info = json.loads(info_path.read_text())
+            if _in_precision(info, precision):
+                yield info_path.parent, config_key(info.get("config"))
+
+
+def _in_progress(cache_root: str | Path):
+    """``(.work folder, newest checkpoint's step)`` of every training in progress under ``cache_root``."""
+    for work in (Path(cache_root) / "models").glob("*/*/*.work"):
+        newest = _newest_checkpoint(work)
+        if newest is not None:
+            yield work, int(newest.name.removeprefix("step_"))
 
 
 def checkpoints_in_progress(cache_root: str | Path) -> dict[str, int]:
     """``{"<hash>.work": step}``: the newest checkpoint's step of every training in progress under ``cache_root``."""
-    found = {}
-    for work in (Path(cache_root) / "models").glob("*/*/*.work"):
-        newest = _newest_checkpoint(work)
-        if newest is not None:
-            found[work.name] = int(newest.name.removeprefix("step_"))
-    return found
+    return {work.name: step for work, step in _in_progress(cache_root)}
 
 
 def cached_progress(cache_root: str | Path, precision: str | None = None) -> dict[str, float]:
@@ -75,15 +78,12 @@ def cached_progress(cache_root: str | Path, precision: str | None = None) -> dic
     progress (one whose ``.work`` folder says what it trains) and ``inf`` for a finished model. A plan subtracts
     these steps from what a point still has to train."""
     progress: dict[str, float] = {}
-    for work in (Path(cache_root) / "models").glob("*/*/*.work"):
-        newest, info_path = _newest_checkpoint(work), work / "config.json"
-        if newest is not None and info_path.is_file():
-            info = json.loads(info_path.read_text())
+    for work, step in _in_progress(cache_root):
+        if (work / "config.json").is_file():
+            info = json.loads((work / "config.json").read_text())
             if _in_precision(info, precision):
-                progress[config_key(info.get("config"))] = int(newest.name.removeprefix("step_"))
-    for folder, config in _finished(cache_root):
-        if _in_precision(json.loads((folder / "config.json").read_text()), precision):
-            progress[config] = math.inf
+                progress[config_key(info.get("config"))] = step
+    progress.update((config, math.inf) for _, config in _finished(cache_root, precision))
     return progress
 
 

@@ -173,7 +173,7 @@ class Trainer:
         self._saved_step: int | None = None
         # every fit() that trained this model, oldest first (checkpointed), and the one under way: (first step, start)
         self.sittings: list[dict[str, Any]] = []
-        self._sitting: tuple[int, float] | None = None
+        self._sitting: tuple[int, float, dict[str, Any]] | None = None  # first step, start time, hardware
         self.history: list[dict[str, float]] = []
         # running sums of the logged terms since the last log line, in float64 on the device (read at log steps)
         self._acc: dict[str, torch.Tensor] = {}
@@ -254,7 +254,7 @@ class Trainer:
         ``KeyboardInterrupt`` is raised (see the module's docstring)."""
         # Ranks of a distributed run could see the signal at different steps and then disagree on where to save.
         deferrable = self.workdir is not None and self.dist.world_size == 1
-        self._sitting = (self.step, time.perf_counter())
+        self._sitting = (self.step, time.perf_counter(), self._hardware())
         try:
             with DeferredInterrupt(enabled=deferrable) as interrupt:
                 self._fit(until, interrupt)
@@ -316,12 +316,16 @@ class Trainer:
         """:attr:`sittings` with the fit() under way as far as it has come (a fit that trained no step adds none)."""
         if self._sitting is None or self.step == self._sitting[0]:
             return list(self.sittings)
-        first, start = self._sitting
+        first, start, hardware = self._sitting
+        now = {"steps": [first, self.step], "seconds": round(time.perf_counter() - start, 3), **hardware}
+        return [*self.sittings, now]
+
+    def _hardware(self) -> dict[str, Any]:
+        """What a sitting ran on (read once per fit(), not at every checkpoint)."""
         where = {"device": self.device.type, "name": device_name(self.device), "ranks": self.dist.world_size}
         if self.device.type == "cpu":
             where["threads"] = torch.get_num_threads()
-        now = {"steps": [first, self.step], "seconds": round(time.perf_counter() - start, 3), **where}
-        return [*self.sittings, now]
+        return where
 
     # -- checkpoints -------------------------------------------------------------------------------------------
     def _noise_name(self, rank: int) -> str:
