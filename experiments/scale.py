@@ -35,11 +35,12 @@ finished models they load (the evaluator, a tokenizer two groups share) and the 
 off mid-way; ``--carry-in DIR`` on the next lease unpacks it first, so that point resumes from its checkpoint instead
 of starting again, and a point longer than one command finishes over several. With ``--carry-out`` a run uses all of
 ``--minutes`` and is stopped from outside (``timeout -s INT``, as ``tools/gpu_lease.sh`` does); it packs on the way
-out. Stopped with SIGINT (Ctrl-C, ``timeout -s INT``), a training saves the step it reached first. Without
-``--carry-out``, a point cut off on a leased machine is retrained from the start by the next lease, at the cost of its
-predicted time again; on a machine that keeps ``$MOTIONLAB_HOME`` (a workstation's CPUs, over several sittings) the
-next run resumes it from the cache as it is. A resumed model's record says from which step (``"resumed_from"``); its
-``seconds`` time this run's steps only, and its ``sittings`` list every run that trained it (steps, seconds, device).
+out. Stopped with SIGINT (Ctrl-C, ``timeout -s INT``) or SIGTERM (a machine's time limit), a training saves the step
+it reached first, and the carry is still packed. Without ``--carry-out``, a point cut off on a leased machine is
+retrained from the start by the next lease, at the cost of its predicted time again; on a machine that keeps
+``$MOTIONLAB_HOME`` (a workstation's CPUs, over several sittings) the next run resumes it from the cache as it is. A
+resumed model's record says from which step (``"resumed_from"``); its ``seconds`` time this run's steps only, and its
+``sittings`` list every run that trained it (steps, seconds, device).
 
 Each point's record, ``<out>/<group>-x<multiple>.json``, holds the device (the GPU's name, or the CPU's), the
 precision, the torch version, the commit, the data, the batch factor, every model's steps × batch and time, the
@@ -53,6 +54,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import signal
 import sys
 import time
 from pathlib import Path
@@ -242,6 +244,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.plan:
         return 0
     args.out.mkdir(parents=True, exist_ok=True)
+    # a machine's time limit (SIGTERM) stops a run like the lease's own SIGINT: the training under way checkpoints
+    # its step, and what the next run needs is still packed
+    previous_sigterm = signal.signal(signal.SIGTERM, _sigterm_as_interrupt)
     try:
         return _run_points(args, points, records, done, rates, run, precision, device_type)
     except KeyboardInterrupt:  # the lease's hard stop: a training checkpoints the step it stopped at
@@ -249,6 +254,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"interrupted: {len(left)} point(s) left ({', '.join(left)}); run again to continue", flush=True)
         return 130
     finally:
+        if previous_sigterm is not None:  # None: a handler from outside Python, which cannot be put back
+            signal.signal(signal.SIGTERM, previous_sigterm)  # a second SIGTERM while packing ends the run at once
         if args.carry_out is not None:
             pending = [p for p in points if p.key not in done]
             configs = [c for p in pending for c in _configs(p, args.profile)["models"].values()]
@@ -286,6 +293,10 @@ def _no_time(deadline: float, predicted: float | None, carried: bool = False) ->
     (unless the cache is carried out, when a point cut off resumes next run: then any time left is used)."""
     left = deadline - time.monotonic()
     return left <= 0 or (not carried and predicted is not None and predicted > left)
+
+
+def _sigterm_as_interrupt(signum: int, frame) -> None:
+    raise KeyboardInterrupt("SIGTERM")
 
 
 if __name__ == "__main__":

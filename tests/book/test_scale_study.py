@@ -9,6 +9,7 @@ import json
 import math
 import os
 import shutil
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -385,3 +386,28 @@ def test_a_run_carries_the_models_the_next_lease_loads(tmp_path):
         "discord/rvq-repeat": True,
         "discord/rvq-transposed": True,
     }
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGKILL"), reason="POSIX signals")
+def test_a_machines_time_limit_stops_a_run_like_ctrl_c_and_the_carry_is_still_packed(tmp_path):
+    """A SIGTERM (what a machine's time limit sends when the lease's own SIGINT came too late) ends the run as
+    "interrupted", and the models the next run needs are packed on the way out."""
+    out, carried = tmp_path / "records", tmp_path / "carried"
+    env = {**os.environ, "MOTIONLAB_HOME": str(tmp_path / "home"), "PYTHONPATH": str(REPO / "src")}
+    env.pop("MOTIONLAB_PROFILE", None)
+    command = [sys.executable, str(SCRIPT), "--smoke", "--groups", "discord", "--multiples", "0.5"]
+    command += ["--out", str(out), "--carry-out", str(carried)]
+    proc = subprocess.Popen(command, env=env, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        for line in proc.stderr:  # under way: the tokenizer is trained, the decoder's training begins
+            if "training discord/rvq" in line:
+                break
+        proc.send_signal(signal.SIGTERM)
+        stdout, stderr = proc.communicate(timeout=600)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130, stderr[-3000:]
+    assert "interrupted: 1 point(s) left (discord-x0.5)" in stdout
+    packed = stdout.splitlines()[-1]
+    assert packed.startswith("carried ") and "rvq/smoke/" in packed and list(carried.glob("scale-cache.tgz.*"))
+    assert not list(out.glob("*.json"))

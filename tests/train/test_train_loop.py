@@ -4,6 +4,8 @@ import json
 import math
 import os
 import signal
+import subprocess
+import sys
 
 import pytest
 import torch
@@ -171,18 +173,37 @@ def test_resume_is_bit_identical(tmp_path):
         Trainer(make_model(), noisy_mse, regression_batch, config(steps=20, lr=0.5), workdir=tmp_path, progress=False)
 
 
-def ctrl_c_at(steps, signals=1):
-    """``noisy_mse`` that sends this process ``signals`` SIGINTs during each step in ``steps`` (counted from 1)."""
+def ctrl_c_at(steps, signals=1, signum=signal.SIGINT):
+    """``noisy_mse`` that sends this process ``signals`` of ``signum`` (SIGINT: Ctrl-C) during each step in ``steps``
+    (counted from 1)."""
     seen = []
 
     def loss_fn(model, batch, generator):
         seen.append(None)
         if len(seen) in steps:
             for _ in range(signals):
-                os.kill(os.getpid(), signal.SIGINT)
+                os.kill(os.getpid(), signum)
         return noisy_mse(model, batch, generator)
 
     return loss_fn
+
+
+class Terminated(Exception):
+    """What the SIGTERM handler of these tests raises (a scheduler's job, a lease's script: they clean up)."""
+
+
+@pytest.fixture
+def sigterm_handler():
+    """A Python SIGTERM handler for the test, so a SIGTERM cannot end pytest; its calls are counted."""
+    calls = []
+
+    def handler(signum, frame):
+        calls.append(signum)
+        raise Terminated
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    yield handler, calls
+    signal.signal(signal.SIGTERM, previous)
 
 
 def test_ctrl_c_checkpoints_the_step_it_arrives_in_and_the_run_resumes_bit_identically(tmp_path):
@@ -202,6 +223,79 @@ def test_ctrl_c_checkpoints_the_step_it_arrives_in_and_the_run_resumes_bit_ident
     assert resumed.step == 7
     resumed.fit()
     assert_same_run(resumed, straight)
+
+
+def test_a_sigterm_checkpoints_its_step_before_the_handler_that_was_there_runs(tmp_path, sigterm_handler):
+    handler, calls = sigterm_handler
+    cfg = config(steps=20, ckpt_every=5)
+    straight = Trainer(make_model(), noisy_mse, regression_batch, cfg, progress=False)
+    straight.fit()
+
+    cut = Trainer(make_model(), ctrl_c_at({7}, signum=signal.SIGTERM), regression_batch, cfg, workdir=tmp_path)
+    with pytest.raises(Terminated):
+        cut.fit()
+    assert calls == [signal.SIGTERM]  # the caller's handler ran once, after the step and its checkpoint
+    assert signal.getsignal(signal.SIGTERM) is handler
+    assert cut.step == 7 and latest_checkpoint(tmp_path).name == "step_00000007"
+
+    resumed = Trainer(make_model(), noisy_mse, regression_batch, cfg, workdir=tmp_path, progress=False)
+    resumed.fit()
+    assert_same_run(resumed, straight)
+
+
+def test_a_sigterm_handler_that_returns_still_stops_the_training(tmp_path):
+    previous = signal.signal(signal.SIGTERM, lambda signum, frame: None)  # a process that goes on after SIGTERM
+    try:
+        cut = Trainer(make_model(), ctrl_c_at({4}, signum=signal.SIGTERM), regression_batch, config(), workdir=tmp_path)
+        with pytest.raises(KeyboardInterrupt, match="step 4"):  # never a silent early return
+            cut.fit()
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert latest_checkpoint(tmp_path).name == "step_00000004"
+
+
+def test_a_second_sigterm_acts_at_once(tmp_path, sigterm_handler):
+    cut = Trainer(make_model(), ctrl_c_at({7}, 2, signal.SIGTERM), regression_batch, config(), workdir=tmp_path)
+    with pytest.raises(Terminated):
+        cut.fit()
+    assert sigterm_handler[1] == [signal.SIGTERM]
+    assert cut.step == 6 and latest_checkpoint(tmp_path) is None  # raised inside step 7: nothing saved
+
+
+def test_without_a_workdir_a_sigterm_acts_at_once(sigterm_handler):
+    trainer = Trainer(make_model(), ctrl_c_at({3}, signum=signal.SIGTERM), regression_batch, config(), progress=False)
+    with pytest.raises(Terminated):
+        trainer.fit()
+    assert trainer.step == 2
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGKILL"), reason="POSIX signals")
+def test_a_process_ended_by_sigterm_leaves_the_checkpoint_of_its_last_step(tmp_path):
+    """By default a SIGTERM ends the process, as before, but one step later, with that step checkpointed."""
+    script = f"""
+import os, signal, torch
+from torch import nn
+from motionlab.train import TrainConfig, Trainer
+
+def batch(step, generator):
+    x = torch.randn(8, 3, generator=generator)
+    return x, x.sum(1, keepdim=True)
+
+def loss(model, b, generator):
+    if model.calls == 5:
+        os.kill(os.getpid(), signal.SIGTERM)
+    model.calls += 1
+    return {{"loss": ((model(b[0]) - b[1]) ** 2).mean()}}
+
+model = nn.Linear(3, 1)
+model.calls = 0
+Trainer(model, loss, batch, TrainConfig(steps=50, ckpt_every=0), workdir={str(tmp_path)!r}, progress=False).fit()
+print("not reached")
+"""
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert done.returncode == -signal.SIGTERM, done.stderr
+    assert "not reached" not in done.stdout
+    assert latest_checkpoint(tmp_path).name == "step_00000006"  # the step the signal came in
 
 
 def test_each_process_that_trains_a_model_is_one_sitting_of_its_checkpoints(tmp_path):

@@ -26,7 +26,9 @@ go or N/2 + resume + N/2 produces the same bits. The learning rate is a pure fun
 Ctrl-C (a SIGINT: a lease's ``timeout -s INT``, a notebook's interrupt) during :meth:`Trainer.fit` of a single
 process with a ``workdir`` lets the step under way finish, writes a checkpoint at that step and then raises
 ``KeyboardInterrupt``, so the next run resumes where this one stopped instead of at the last periodic checkpoint.
-A second Ctrl-C interrupts at once.
+A SIGTERM (what a job scheduler sends before it preempts a job, or a machine's time limit) is deferred the same
+way; after the checkpoint the process's own SIGTERM handling takes over (by default the process ends, as it would
+have a step earlier). A second signal of either kind acts at once.
 
 Each checkpoint also lists the model's *sittings* (:attr:`Trainer.sittings`): every :meth:`Trainer.fit` that
 trained it so far, with its steps, wall seconds and hardware. A model trained over several processes (resumed after
@@ -251,7 +253,8 @@ class Trainer:
         """Train up to step ``until`` (default: ``config.steps``); returns the history of logged averages.
 
         With a ``workdir`` in a single process, Ctrl-C checkpoints the step it arrives in before
-        ``KeyboardInterrupt`` is raised (see the module's docstring)."""
+        ``KeyboardInterrupt`` is raised, and a SIGTERM checkpoints it before the SIGTERM handler that was there runs
+        (see the module's docstring)."""
         # Ranks of a distributed run could see the signal at different steps and then disagree on where to save.
         deferrable = self.workdir is not None and self.dist.world_size == 1
         self._sitting = (self.step, time.perf_counter(), self._hardware())
@@ -260,7 +263,9 @@ class Trainer:
                 self._fit(until, interrupt)
         finally:
             self.sittings, self._sitting = self._sittings_so_far(), None
-        if interrupt.requested:
+        if interrupt.requested == signal.SIGTERM:
+            signal.raise_signal(signal.SIGTERM)  # the handler put back acts now; by default the process ends here
+        if interrupt.requested:  # SIGINT, or a SIGTERM handler that returned
             raise KeyboardInterrupt(f"training stopped at step {self.step:,}; its checkpoint resumes it")
         return self.history
 
@@ -374,34 +379,38 @@ class Trainer:
 
 
 class DeferredInterrupt:
-    """While entered (and ``enabled``), the first SIGINT only sets :attr:`requested`: the loop finishes its step,
-    checkpoints and stops. The handler that was there before comes back at once, so a second SIGINT interrupts
-    wherever the program is. Off the main thread, where SIGINT is ignored, or under a handler Python did not
-    install, nothing changes."""
+    """While entered (and ``enabled``), the first SIGINT or SIGTERM only sets :attr:`requested` to its number: the
+    loop finishes its step, checkpoints and stops. The handler that was there before comes back at once, so a second
+    signal of the same kind acts wherever the program is. Off the main thread, where signals cannot be handled, and
+    for a signal the process ignores or whose handler Python did not install, nothing changes."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
     def __init__(self, enabled: bool = True):
-        self.requested = False
+        self.requested: int | None = None
         self._enabled = enabled
-        self._previous = None
+        self._previous: dict[int, Any] = {}
 
     def __enter__(self) -> DeferredInterrupt:
         if self._enabled and threading.current_thread() is threading.main_thread():
-            previous = signal.getsignal(signal.SIGINT)
-            # None: a handler set outside Python, which could not be put back; SIG_IGN: the process ignores Ctrl-C
-            # (a shell's background job), and a training inside it must not start to listen
-            if previous not in (None, signal.SIG_IGN):
-                self._previous = previous
-                signal.signal(signal.SIGINT, self._request)
+            for signum in self.SIGNALS:
+                previous = signal.getsignal(signum)
+                # None: a handler set outside Python, which could not be put back; SIG_IGN: the process ignores the
+                # signal (Ctrl-C in a shell's background job), and a training inside it must not start to listen
+                if previous not in (None, signal.SIG_IGN):
+                    self._previous[signum] = previous
+                    signal.signal(signum, self._request)
         return self
 
-    def _request(self, signum, frame) -> None:
-        self.requested = True
-        signal.signal(signal.SIGINT, self._previous)
+    def _request(self, signum: int, frame) -> None:
+        if self.requested is None:
+            self.requested = signum
+        signal.signal(signum, self._previous.pop(signum))
 
     def __exit__(self, *exc) -> None:
-        if self._previous is not None:
-            signal.signal(signal.SIGINT, self._previous)
-            self._previous = None
+        for signum, previous in self._previous.items():
+            signal.signal(signum, previous)
+        self._previous = {}
 
 
 def final_loss(history: list[dict[str, float]]) -> float:
