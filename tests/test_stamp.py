@@ -1,5 +1,9 @@
 """The stamp committed experiment records carry."""
 
+import subprocess
+
+import pytest
+
 from motionlab.build.stamp import commit, machine_stamp
 
 
@@ -7,7 +11,10 @@ def test_machine_stamp_names_cpu_precision_threads_and_commit():
     stamp = machine_stamp()
     assert set(stamp) == {"cpu", "machine", "precision", "torch_threads", "commit"}
     assert stamp["precision"] in ("fp32", "bf16") and stamp["torch_threads"] >= 1
-    assert stamp["commit"] == commit()
+    head = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True).stdout.strip()
+    if not head:
+        pytest.skip("not run from a git checkout")
+    assert stamp["commit"] and head.startswith(stamp["commit"])  # the checkout's HEAD, as a short hash
 
 
 def test_commit_is_none_outside_a_checkout(tmp_path, monkeypatch):

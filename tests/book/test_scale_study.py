@@ -20,7 +20,8 @@ from motionlab import sizes
 from motionlab.evaluation.scale import check_point, point_changes, point_configs, scaled_budgets, training_steps
 from motionlab.report.gpu import load_gpu_runs
 from motionlab.report.render import claims_table
-from motionlab.report.scale import load_scale_study, scale_study_note, scale_verdicts, study_scale
+from motionlab.report.scale import FOLDER, load_scale_study, scale_study_note, scale_verdicts, study_scale
+from motionlab.report.spread import embedded_data_folder
 from motionlab.results import CLAIMS
 from motionlab.studies.scale import (
     Point,
@@ -212,7 +213,10 @@ def test_the_recorded_points_measured_the_books_models_and_evaluations():
     """Every point under book/data/scale/ was trained and scored as the code would now; a change to a studied model
     or its evaluation fails here until the point is measured again."""
     study = load_scale_study("laptop")
-    assert study is None or not study.set_aside, "\n".join(study.set_aside)
+    committed = list(embedded_data_folder(FOLDER).glob("*-x*.json"))
+    assert study is not None and committed, "no scale record is committed for the current embedded data"
+    assert not study.set_aside, "\n".join(study.set_aside)
+    assert len(study.records) == len(committed)  # every committed file was read, none filtered out
 
 
 # ----------------------------------------------------------------------------------- the smoke pipeline, end to end

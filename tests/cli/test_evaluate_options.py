@@ -3,6 +3,7 @@ config from exactly those options and a config writes itself back as that comman
 
 from __future__ import annotations
 
+import argparse
 import shlex
 from dataclasses import fields
 
@@ -47,16 +48,26 @@ def test_every_option_is_a_config_field_and_every_field_an_option(task):
     assert set(args) - NOT_CONFIG == names  # argparse's destinations are the field names
 
 
+def _task_parser(task: str) -> argparse.ArgumentParser:
+    """The parser of ``motionlab evaluate <task>``."""
+    parser = cli.build_parser()
+    for name in ("evaluate", task):
+        parser = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices[name]
+    return parser
+
+
 @pytest.mark.parametrize("task", sorted(CONFIGS))
 def test_each_flag_is_the_one_the_parser_knows(task):
+    actions = {flag: action for action in _task_parser(task)._actions for flag in action.option_strings}
     for name, option in CLI_OPTIONS[task].items():
-        value = "1" if option.kind != "switch" else None
-        argv = ["evaluate", task, option.flag] + ([value] if value else [])
-        try:
-            parsed = _parsed(argv)
-        except SystemExit:  # a choice-restricted option refuses "1": the flag itself was recognised
-            continue
-        assert getattr(parsed, name) is not None, option.flag
+        action = actions.get(option.flag)
+        assert action is not None and action.dest == name, option.flag
+        if option.kind == "switch":
+            words = [option.flag]
+        else:  # a value the parser accepts that is not the default
+            words = [option.flag, next(c for c in action.choices if c != action.default) if action.choices else "1"]
+        parsed = _parsed(["evaluate", task, *words])
+        assert getattr(parsed, name) != action.default, option.flag  # the value given reached the field
 
 
 def test_comma_options_parse_into_tuples_and_name_the_flag_when_wrong():

@@ -10,6 +10,8 @@ from motionlab.diffusion import (
     build_transitions,
     denoise_step,
     get_schedule,
+    gumbel_sample,
+    log_p_posterior,
     sample,
     timestep_grid,
     transformer_config,
@@ -98,24 +100,43 @@ def test_sampling_is_deterministic_under_a_seed(setup):
     assert torch.equal(run(3, guidance_scale=2.0, top_k=3), run(3, guidance_scale=2.0, top_k=3))
 
 
+class Recording(torch.nn.Module):
+    """The denoiser, keeping each call's ``drop_text`` and output (to build a step's draw by hand)."""
+
+    def __init__(self, model):
+        super().__init__()
+        self.model, self.calls = model, []
+
+    def forward(self, *args, **kw):
+        out = self.model(*args, **kw)
+        self.calls.append((kw.get("drop_text"), out.float()))
+        return out
+
+
 def test_neutral_guidance_matches_the_conditional_sampler(setup):
-    """s = 0 needs no unconditional pass; both guidance spaces then coincide with it."""
+    """s = 0 needs no unconditional pass; both guidance spaces then coincide with the conditional sampler."""
     model, tr, text = setup
     x = torch.full((3, 6), K)
-    draws = [
-        denoise_step(
-            model,
-            tr,
-            x,
-            T,
-            T - 3,
-            text,
-            generator=torch.Generator().manual_seed(0),
-            guidance_scale=0.0,
-            guidance_on=space,
+    draws = []
+    for space in ("x0", "posterior"):
+        recording = Recording(model)
+        draws.append(
+            denoise_step(
+                recording,
+                tr,
+                x,
+                T,
+                T - 3,
+                text,
+                generator=torch.Generator().manual_seed(0),
+                guidance_scale=0.0,
+                guidance_on=space,
+            )
         )
-        for space in ("x0", "posterior")
-    ]
+        ((drop, log_c),) = recording.calls  # one call, conditional only
+        assert drop is None or not drop.any()
+        posterior = log_p_posterior(log_c, x, tr.interval(T - 3, T), tr.cumulative[T - 3], tr.cumulative[T])
+        assert torch.equal(draws[-1], gumbel_sample(posterior, torch.Generator().manual_seed(0)))
     assert torch.equal(draws[0], draws[1])
     guided = [
         denoise_step(model, tr, x, T, 0, text, generator=torch.Generator().manual_seed(s), guidance_scale=5.0)

@@ -106,10 +106,16 @@ def test_training_lowers_the_loss_and_conditioning_finds_the_cluster():
     assert ((x - centres).norm(dim=1) < 0.75).float().mean() > 0.8  # samples land in their own Gaussian
 
 
-def test_train_or_load_caches_the_model(isolated_cache):
+def test_train_or_load_caches_the_model(isolated_cache, monkeypatch):
+    import motionlab.flow.toy as toy
+
+    trainings = []
+    train = toy.train_toy_flow
+    monkeypatch.setattr(toy, "train_toy_flow", lambda *a, **k: trainings.append(1) or train(*a, **k))
     cfg = ToyFlowConfig(hidden=8, depth=1, steps=20, batch_size=32, warmup_steps=0)
     first = train_or_load_toy_flow(cfg, profile="smoke", progress=False)
     second = train_or_load_toy_flow(cfg, profile="smoke", progress=False)
+    assert trainings == [1]  # the second call loaded
     for p, q in zip(first.parameters(), second.parameters()):
         assert torch.equal(p, q)
     assert any(isolated_cache.rglob("model.safetensors"))

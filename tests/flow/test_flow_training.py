@@ -68,15 +68,15 @@ def test_train_once_then_load(dataset, tokenizer, isolated_cache, monkeypatch):
 
 def test_cached_weights_are_the_ema_average(dataset, tokenizer, isolated_cache):
     config = tiny_config(tokenizer, train_steps=6, warmup_steps=1)
-    trained = train_or_load_discord(dataset, tokenizer, "smoke", config=config, progress=False)
-    model = DisCoRDDecoder(config)
-    history = flow_training.train_discord(model, tokenizer, dataset.normalized("train"), progress=False)["history"]
-    assert len(history) == 6
-    for (name, a), (_, b) in zip(trained.state_dict().items(), model.state_dict().items()):
-        assert torch.allclose(a, b, atol=1e-6), name  # same seeds → same run (validation does not perturb it)
-    fresh = DisCoRDDecoder(config).to(next(model.parameters()).device)
-    ema_moved = [not torch.equal(a, b) for a, b in zip(fresh.state_dict().values(), model.state_dict().values())]
-    assert any(ema_moved)
+    cached = train_or_load_discord(dataset, tokenizer, "smoke", config=config, progress=False).state_dict()
+    model, clips = DisCoRDDecoder(config), dataset.normalized("train")
+    trainer = flow_training.discord_trainer(model, tokenizer, clips, progress=False)
+    trainer.fit()  # the same seeds: the same run (the cached one's validation does not perturb it)
+    raw = trainer.model.state_dict()
+    assert trainer.ema is not None and trainer.ema.shadow
+    for name, average in trainer.ema.shadow.items():
+        assert torch.allclose(cached[name], average, atol=1e-6), name
+    assert any(not torch.allclose(cached[n], raw[n], atol=1e-6) for n in trainer.ema.shadow)  # not the last step's
 
 
 def test_decoding_shapes_after_training(dataset, tokenizer, isolated_cache):

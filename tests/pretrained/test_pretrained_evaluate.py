@@ -14,7 +14,7 @@ from released_layouts import UNetSize, VQSize, write_discord, write_t2mgpt
 
 from motionlab.cli import main
 from motionlab.data import load_dataset
-from motionlab.evaluation import ReconstructionConfig, evaluate_reconstruction
+from motionlab.evaluation import EvaluationTable, ReconstructionConfig, evaluate_reconstruction
 from motionlab.flow.reconstruction import decode_clips, reconstruction_scores
 from motionlab.metrics import TextMotionEvaluator, load_official_evaluator
 from motionlab.metrics.evaluator import EvaluatorConfig
@@ -93,9 +93,10 @@ def test_a_t2mgpt_tokenizer_gives_its_feed_forward_row(released, official_evalua
     argv = ["evaluate", "reconstruction", "--data", str(root / "HumanML3D"), "--decoder", "feed-forward"]
     argv += ["--tokenizer", f"t2mgpt:{root / 'T2M-GPT' / 'VQVAE' / 'net_last.pth'},{root / 'T2M-GPT' / 'meta'}"]
     argv += ["--evaluator", f"official:{tmp_path / 'evaluator'}", "--limit", "4", "--repeats", "1"]
-    assert main(argv) == 0
-    out = capsys.readouterr().out
-    assert "T2M-GPT VQ-VAE (released) decoder" in out and "DisCoRD" not in out.split("\n\n")[-1].split("|")[0]
+    assert main([*argv, "--json", str(tmp_path / "table.json")]) == 0
+    assert "T2M-GPT VQ-VAE (released) decoder" in capsys.readouterr().out
+    table = EvaluationTable.from_json_dict(json.loads((tmp_path / "table.json").read_text()))
+    assert list(table.rows) == ["T2M-GPT VQ-VAE (released) decoder"]  # the feed-forward row alone, no DisCoRD row
 
 
 def test_a_damaged_released_checkpoint_is_one_line_naming_the_file(released, tmp_path, capsys):

@@ -93,9 +93,13 @@ def test_torch_inputs_give_torch_outputs():
 
 def test_foot_contacts_follow_foot_speed():
     joints = procedural_motion()
-    joints[:, [10]] = joints[:1, [10]]  # pin the left foot
-    feats = joints_to_features(joints, retarget_to_target=False)
-    assert set(np.unique(feats[:, 259:263])) <= {0.0, 1.0}
+    moving = joints_to_features(joints, retarget_to_target=False)[:, 259:263]
+    joints[:, [10]] = joints[:1, [10]]  # pin the left toe (contacts: left ankle, left toe, right ankle, right toe)
+    pinned = joints_to_features(joints, retarget_to_target=False)[:, 259:263]
+    assert set(np.unique(pinned)) <= {0.0, 1.0}
+    assert (pinned[:, 1] == 1).all() and moving[:, 1].mean() < 0.5  # a still toe is in contact at every frame
+    assert (pinned[:, [0, 2, 3]].mean(0) < 0.5).all()  # the walking feet touch the ground only part of the time
+    np.testing.assert_array_equal(pinned[:, 2:], moving[:, 2:])  # pinning one foot leaves the other's contacts
 
 
 @pytest.mark.parametrize(

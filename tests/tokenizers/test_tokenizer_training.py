@@ -95,16 +95,21 @@ def test_train_tokenizer_checks_feature_dim():
         train_tokenizer(model, [np.zeros((40, 251), dtype=np.float32)], progress=False)
 
 
-def test_tokenizer_for_dataset_trains_once_per_dataset(tmp_path):
+def test_tokenizer_for_dataset_trains_once_per_dataset(tmp_path, monkeypatch):
+    import motionlab.tokenizers.training as training
     from motionlab.data import MotionDataset
     from motionlab.data.embedded import write_embedded_dataset
     from motionlab.tokenizers import tokenizer_for_dataset, vq_config
     from motionlab.train import is_trained
 
+    trainings = []
+    train = training.train_tokenizer
+    monkeypatch.setattr(training, "train_tokenizer", lambda *a, **k: trainings.append(1) or train(*a, **k))
     ds = MotionDataset(write_embedded_dataset(tmp_path / "data", n_clips=42, seed=0, progress=False))
     model = tokenizer_for_dataset("vq", ds, "smoke", progress=False)
     assert is_trained("vq", vq_config("smoke"), "smoke", extra={"data": ds.key})
     again = tokenizer_for_dataset("vq", ds, "smoke", progress=False)
+    assert trainings == [1]  # the second call loaded
     for a, b in zip(model.state_dict().values(), again.state_dict().values()):
         assert torch.equal(a, b)
     with pytest.raises(ValueError, match="kind must be one of"):

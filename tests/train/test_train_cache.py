@@ -1,5 +1,6 @@
 """train_or_load: trains once, caches by config hash, never loads a half-finished run."""
 
+import dataclasses
 import json
 from dataclasses import dataclass
 
@@ -208,5 +209,8 @@ def test_a_finished_artefact_keeps_the_sittings_that_trained_it():
 def test_a_training_in_progress_says_what_it_trains():
     config, train = ToyConfig(hidden=3), Counter()
     train_or_load("toy", config, build, train, "smoke")
-    assert train.work_info["config"] == {"hidden": 3, "train": train.work_info["config"]["train"]}
+    written = train.work_info["config"]
+    assert set(written) == {"hidden", "train"} and written["hidden"] == 3
+    assert written["train"] == json.loads(json.dumps(dataclasses.asdict(config.train)))  # the schedule it trains
+    assert (written["train"]["steps"], written["train"]["lr"], written["train"]["log_every"]) == (10, 1e-2, 5)
     assert train.work_info["hash"] == artefact_dir("toy", config, "smoke").name
