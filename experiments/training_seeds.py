@@ -16,11 +16,12 @@ own evaluation at the profile's sizes:
 
 ::
 
-    python experiments/training_seeds.py --study discord --seeds 0 1 2   # laptop: ~12 CPU-min per new seed (bf16)
-    python experiments/training_seeds.py --study m2d2m --seeds 0 1 2     # laptop: ~10 CPU-min per seed
-    python experiments/training_seeds.py --study transitions --seeds 0 1 2   # laptop: ~9 CPU-min per new seed (fp32)
+    python experiments/training_seeds.py --study discord --seeds 0 1 2   # laptop: ~18 CPU-min per new seed (bf16)
+    python experiments/training_seeds.py --study m2d2m --seeds 0 1 2     # laptop: 7 to 10 CPU-min per seed (bf16)
+    python experiments/training_seeds.py --study transitions --seeds 0 1 2   # laptop: ~2.5 CPU-min per new seed (fp32)
 
-(Those are bf16 times on Zen 5; in fp32 on an AVX2-only Zen 3 a new discord seed took ~38 CPU-min, an m2d2m seed ~12.)
+(The bf16 times are Zen 5's; in fp32 on an AVX2-only Zen 3 a new discord seed took ~38 CPU-min, an m2d2m seed ~12;
+the records' ``seconds`` hold each run's own.)
 
 Each seed's numbers go to ``<out>/<study>-<profile>-<precision>-seed<k>.json`` (written atomically; an existing one is
 skipped; a run in another precision, on another machine, is another file) with the data, the machine, the precision,

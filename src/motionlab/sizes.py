@@ -286,7 +286,7 @@ TOKENIZER = {
 RVQ_TOKENIZER = {"smoke": {**TOKENIZER["smoke"], "num_layers": 3}, "laptop": TOKENIZER["laptop"]}
 
 # DisCoRDConfig (flow/config.py). Smoke: seconds of training, code width = the smoke tokenizer's. Laptop: chosen by
-# measurement (chapter 05, experiments/discord_sweep.py): under 10 minutes of fp32 training on one core of a 2-core
+# measurement (study s1, experiments/discord_sweep.py): under 10 minutes of fp32 training on one core of a 2-core
 # machine (data v2), the paper's velocity U-Net at width 272 got ~420 steps and stayed rough; an x-predicting U-Net of
 # width 128 (no noise floor below the 263 features) got ~1,300 steps and the lowest validation sJPE, decoded from zero
 # start noise (temperature 0: the paper samples at 1; chapter 05 reports the cost). Its budget, re-measured on data v3
