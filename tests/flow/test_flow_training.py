@@ -68,14 +68,15 @@ def test_train_once_then_load(dataset, tokenizer, isolated_cache, monkeypatch):
 
 def test_cached_weights_are_the_ema_average(dataset, tokenizer, isolated_cache):
     config = tiny_config(tokenizer, train_steps=6, warmup_steps=1)
-    cached = train_or_load_discord(dataset, tokenizer, "smoke", config=config, progress=False).state_dict()
+    trained = train_or_load_discord(dataset, tokenizer, "smoke", config=config, progress=False)
+    cached = {name: tensor.cpu() for name, tensor in trained.state_dict().items()}
     model, clips = DisCoRDDecoder(config), dataset.normalized("train")
     trainer = flow_training.discord_trainer(model, tokenizer, clips, progress=False)
     trainer.fit()  # the same seeds: the same run (the cached one's validation does not perturb it)
-    raw = trainer.model.state_dict()
+    raw = {name: tensor.cpu() for name, tensor in trainer.model.state_dict().items()}
     assert trainer.ema is not None and trainer.ema.shadow
     for name, average in trainer.ema.shadow.items():
-        assert torch.allclose(cached[name], average, atol=1e-6), name
+        assert torch.allclose(cached[name], average.cpu(), atol=1e-6), name
     assert any(not torch.allclose(cached[n], raw[n], atol=1e-6) for n in trainer.ema.shadow)  # not the last step's
 
 
