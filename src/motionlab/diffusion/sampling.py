@@ -30,6 +30,7 @@ from torch import Tensor, nn
 from motionlab.diffusion.posterior import LOG_FLOOR, gumbel_sample, log_p_posterior
 from motionlab.diffusion.transitions import Transitions
 from motionlab.precision import in_precision, network_autocast, network_precision
+from motionlab.train.device import model_device
 
 GUIDANCE_SPACES = ("x0", "posterior")
 
@@ -178,9 +179,15 @@ def denoise_step(
 ) -> Tensor:
     """One reverse jump x_t -> x_{t_prev} (0 <= t_prev < t <= T): (B, L) ids -> (B, L) ids.
 
-    Padded positions (``padding_mask`` True) stay masked. At ``t_prev = 0`` the result holds codes only.
+    Padded positions (``padding_mask`` True) stay masked. At ``t_prev = 0`` the result holds codes only. The inputs
+    are moved to the model's device, where the step runs; the result is returned on ``x_t``'s device.
     """
     _check_denoise_step_inputs(transitions, t, t_prev, guidance_on)
+    where, dev = x_t.device, model_device(model, x_t.device)
+    x_t, text = x_t.to(dev), text.to(dev)
+    text_padding_mask, padding_mask, cross_mask, self_mask = (
+        m.to(dev) if m is not None else None for m in (text_padding_mask, padding_mask, cross_mask, self_mask)
+    )
     kw = dict(
         text_padding_mask=text_padding_mask, padding_mask=padding_mask, cross_mask=cross_mask, self_mask=self_mask
     )
@@ -198,14 +205,7 @@ def denoise_step(
     x_prev = gumbel_sample(log_prev, generator)
     if padding_mask is not None:
         x_prev = x_prev.masked_fill(padding_mask, transitions.mask_id)
-    return x_prev
-
-
-def model_device(model: nn.Module, default: torch.device) -> torch.device:
-    """Where ``model``'s weights live (``default`` for a model without any, e.g. a test stand-in)."""
-    for tensor in (*model.parameters(), *model.buffers()):
-        return tensor.device
-    return default
+    return x_prev.to(where)
 
 
 @torch.no_grad()

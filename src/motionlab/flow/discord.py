@@ -113,16 +113,17 @@ class DisCoRDDecoder(nn.Module):
 
     def to_model_space(self, motion: Tensor) -> Tensor:
         """Tokenizer-normalised features → the flow's space (× 25 on root/contact dims under ``feat_bias``)."""
-        return motion * self.feature_scale.to(motion.dtype)
+        return motion * self.feature_scale.to(motion.device, motion.dtype)  # on motion's device
 
     def from_model_space(self, x: Tensor) -> Tensor:
         """The inverse of :meth:`to_model_space`."""
-        return x / self.feature_scale.to(x.dtype)
+        return x / self.feature_scale.to(x.device, x.dtype)
 
     # ------------------------------------------------------------------ network
 
     def condition(self, code_vectors: Tensor) -> Tensor:
-        """Frame-wise condition features: ``(B, N, d) -> (B, q·N, c)``."""
+        """Frame-wise condition features: ``(B, N, d) -> (B, q·N, c)``, on the decoder's device."""
+        (code_vectors,) = self._on_device(code_vectors)
         return self.projection(code_vectors)
 
     @property

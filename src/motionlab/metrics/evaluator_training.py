@@ -85,8 +85,9 @@ class EvaluatorNetworks(nn.Module):
         self.evaluator = TextMotionEvaluator(config, generator)
 
     def encode_text(self, ids: torch.Tensor, pos_onehot: torch.Tensor, lengths: torch.Tensor) -> torch.Tensor:
-        """Word ids ``(B, L)``, POS one-hots ``(B, L, 15)``, lengths ``(B,)`` -> ``(B, dim_coemb)``."""
-        return self.evaluator.encode_text(self.words(ids), pos_onehot, lengths)
+        """Word ids ``(B, L)``, POS one-hots ``(B, L, 15)``, lengths ``(B,)`` -> ``(B, dim_coemb)``, on the
+        networks' device."""
+        return self.evaluator.encode_text(self.words(ids.to(next(self.parameters()).device)), pos_onehot, lengths)
 
     def encode_motion(self, motions: torch.Tensor, lengths: torch.Tensor) -> torch.Tensor:
         """Normalised, zero-padded ``(B, T, D)``, lengths (multiples of 4) ``(B,)`` -> ``(B, dim_coemb)``."""

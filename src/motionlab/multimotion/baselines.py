@@ -34,7 +34,6 @@ from motionlab.diffusion import (
     sample,
     truncate,
 )
-from motionlab.diffusion.sampling import model_device
 from motionlab.multimotion.tps import (
     MultiMotionTokens,
     SegmentLayout,
@@ -43,6 +42,7 @@ from motionlab.multimotion.tps import (
     text_tensors,
 )
 from motionlab.precision import in_precision, network_precision
+from motionlab.train.device import model_device
 
 DEFAULT_TRANSITION = 40  # frames: M2D2M's transition window and handshake size
 

@@ -150,7 +150,7 @@ class MultiMotionGenerator:
     ) -> MultiMotionTokens:
         """Token ids of every action for ``method`` (``slerp`` samples each action shorter, as
         :func:`~motionlab.multimotion.baselines.shortened_lengths` says, so the blend restores ``lengths``); from
-        ``token_cache`` when the same draw was made before."""
+        ``token_cache`` when the same draw was made before. The ids are on the denoiser's device."""
         texts, lengths = _instances(texts, lengths)
         sampling.setdefault("guidance_scale", self.guidance_scale)
         if method == "tps" and T_s is None:

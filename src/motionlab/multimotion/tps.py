@@ -40,8 +40,8 @@ import torch
 from torch import Tensor, nn
 
 from motionlab.diffusion import Transitions, denoise_step, segment_cross_mask, timestep_grid
-from motionlab.diffusion.sampling import model_device
 from motionlab.precision import network_autocast
+from motionlab.train.device import model_device
 
 UNIT = 4  # frames per motion token (the VQ-VAE's temporal downsampling)
 MAX_ACTIONS = 256  # per instance (M2D2M's Fig. 4 goes up to 256 prompts)

@@ -50,8 +50,8 @@ class ConvTokenizer(nn.Module):
         return next(self.parameters()).device
 
     def decode_latent(self, z: torch.Tensor) -> torch.Tensor:
-        """Continuous latents ``(B, N, code_dim)`` → motion ``(B, 4N, D)``."""
-        return self.decoder(z)
+        """Continuous latents ``(B, N, code_dim)`` → motion ``(B, 4N, D)``, on the tokenizer's device."""
+        return self.decoder(z.to(self.device))
 
     def decode(self, ids: torch.Tensor, **kwargs) -> torch.Tensor:
         """Ids → normalised motion ``(B, T, D)``."""

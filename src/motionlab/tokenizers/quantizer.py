@@ -80,8 +80,9 @@ class QuantizerEMAReset(nn.Module):
 
     # -- pure lookups (no state change) -------------------------------------------------------------------------
     def distances(self, x: torch.Tensor) -> torch.Tensor:
-        """Squared distances ‖x‖² − 2 x·c + ‖c‖²: ``(N, C)`` → ``(N, K)``."""
+        """Squared distances ‖x‖² − 2 x·c + ‖c‖²: ``(N, C)`` → ``(N, K)``, on the codebook's device."""
         c = self.codebook
+        x = x.to(c.device)
         return x.pow(2).sum(-1, keepdim=True) - 2 * x @ c.t() + c.pow(2).sum(-1)[None, :]
 
     def quantize(self, x: torch.Tensor) -> torch.Tensor:
@@ -90,8 +91,8 @@ class QuantizerEMAReset(nn.Module):
         return self.distances(flat).argmin(-1).reshape(x.shape[:-1])
 
     def lookup(self, ids: torch.Tensor) -> torch.Tensor:
-        """Code vectors for indices: ``(...)`` → ``(..., C)``."""
-        return F.embedding(ids, self.codebook)
+        """Code vectors for indices: ``(...)`` → ``(..., C)``, on the codebook's device."""
+        return F.embedding(ids.to(self.codebook.device), self.codebook)
 
     # -- training-time state updates --------------------------------------------------------------------------
     @torch.no_grad()

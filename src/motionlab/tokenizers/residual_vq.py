@@ -90,8 +90,10 @@ class ResidualVQ(nn.Module):
 
     @torch.no_grad()
     def quantize(self, z: torch.Tensor, num_layers: int | None = None) -> torch.Tensor:
-        """Deterministic residual argmin: ``(..., C)`` → ids ``(..., R)`` (layers past ``num_layers`` are −1)."""
+        """Deterministic residual argmin: ``(..., C)`` → ids ``(..., R)`` (layers past ``num_layers`` are −1), on the
+        codebooks' device."""
         n = self.num_layers if num_layers is None else num_layers
+        z = z.to(self.layers[0].codebook.device)
         ids = torch.full((*z.shape[:-1], self.num_layers), -1, dtype=torch.long, device=z.device)
         residual = z
         for k, layer in enumerate(self.layers[:n]):
@@ -100,7 +102,9 @@ class ResidualVQ(nn.Module):
         return ids
 
     def get_codes_from_indices(self, ids: torch.Tensor) -> torch.Tensor:
-        """Per-layer code vectors: ids ``(..., R')`` with R' ≤ R → ``(R', ..., C)``; index −1 gives a zero vector."""
+        """Per-layer code vectors: ids ``(..., R')`` with R' ≤ R → ``(R', ..., C)``; index −1 gives a zero vector.
+        On the codebooks' device."""
+        ids = ids.to(self.layers[0].codebook.device)
         out = []
         for k in range(ids.shape[-1]):
             idx = ids[..., k]

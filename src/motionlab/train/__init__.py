@@ -12,7 +12,7 @@ from .cache import (
 )
 from .checkpoint import latest_checkpoint, list_checkpoints, load_checkpoint, load_weights, save_checkpoint
 from .data import WindowDataset, collate_clips, crop_length
-from .device import get_device, seed_everything, seeded, to_device
+from .device import get_device, model_device, seed_everything, seeded, to_device
 from .ema import EMA
 from .schedules import SCHEDULES, lr_multiplier
 from .trainer import TrainConfig, Trainer, final_loss
@@ -30,6 +30,7 @@ __all__ = [
     "crop_length",
     "final_loss",
     "get_device",
+    "model_device",
     "is_trained",
     "latest_checkpoint",
     "list_checkpoints",

@@ -65,6 +65,14 @@ def seeded(seed: int) -> Iterator[None]:
         yield
 
 
+def model_device(model: torch.nn.Module, default: torch.device) -> torch.device:
+    """Where ``model``'s weights live (``default`` for a model without any, e.g. a test stand-in): where the public
+    functions that run it move their tensor arguments."""
+    for tensor in (*model.parameters(), *model.buffers()):
+        return tensor.device
+    return default
+
+
 def to_device(batch, device: torch.device):
     """Move a tensor, or the tensors inside nested dicts/lists/tuples, to ``device``."""
     if isinstance(batch, torch.Tensor):

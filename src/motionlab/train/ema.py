@@ -25,8 +25,11 @@ class EMA:
 
     @torch.no_grad()
     def update(self, model: nn.Module) -> None:
+        """One averaging step towards ``model``'s weights; the averages follow the model to its device."""
         averaged, values, copied, sources = [], [], [], []
         for name, value in model.state_dict().items():
+            if self.shadow[name].device != value.device:  # the model was moved after this EMA was made
+                self.shadow[name] = self.shadow[name].to(value.device)
             if value.is_floating_point():
                 averaged.append(self.shadow[name])
                 values.append(value.detach())
