@@ -82,7 +82,8 @@ class TextToMotion:
 
     @torch.no_grad()
     def encode_texts(self, texts: Sequence[str]) -> TextFeatures:
-        """Texts → token features ``(B, S, text_dim)``, padding mask ``(B, S)`` and sentence features."""
+        """Texts → token features ``(B, S, text_dim)``, padding mask ``(B, S)`` and sentence features, on the model's
+        device."""
         texts = check_texts(texts)
         self.text_encoder.eval()
         feats = self.text_encoder.encode(texts)

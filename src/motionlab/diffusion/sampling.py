@@ -234,6 +234,8 @@ def sample(
             a descending list from T to 0.
         guidance_scale: M2D2M's s (0 = conditional model; the paper uses 4 for single motions).
         top_p / top_k: truncation of p_θ(x_0 | x_t) at every step (VQ-Diffusion's default is top_p = 0.85).
+
+    The text is moved to the model's device, where the ids are generated and returned.
     """
     lengths = torch.as_tensor(lengths, dtype=torch.long).flatten()
     B = text.shape[0] if torch.is_tensor(text) and text.ndim == 3 else -1

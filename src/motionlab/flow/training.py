@@ -42,7 +42,8 @@ Clips = Sequence[np.ndarray]
 def code_vectors(tokenizer: Any, motion: Tensor) -> Tensor:
     """The frozen tokenizer's code vectors of normalised motion: ``(B, T, D) -> (B, T/q, d)``.
 
-    For a residual tokenizer this is the sum of all layers' codes (what DisCoRD conditions on).
+    For a residual tokenizer this is the sum of all layers' codes (what DisCoRD conditions on). On the tokenizer's
+    device.
     """
     return tokenizer.embed(tokenizer.encode(motion)).detach()
 

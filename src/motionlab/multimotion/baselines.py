@@ -61,7 +61,8 @@ def independent_sample(
     model: nn.Module, transitions: Transitions, text, segment_lengths, *, generator: torch.Generator, **sampling
 ) -> MultiMotionTokens:
     """Each action alone: :func:`motionlab.diffusion.sample` over the batch of all segments (``sampling``:
-    ``num_steps``, ``timesteps``, ``guidance_scale``, ``guidance_on``, ``top_p``, ``top_k``)."""
+    ``num_steps``, ``timesteps``, ``guidance_scale``, ``guidance_on``, ``top_p``, ``top_k``); ids on the model's
+    device."""
     layout = segment_layout(segment_lengths)
     tokens, pad = text_tensors(text, layout.n_segments)
     ids = sample(model, transitions, tokens, pad, lengths=layout.flat_tokens, generator=generator, **sampling)
@@ -134,7 +135,8 @@ def handshake_sample(
     top_k: int | None = None,
     pad_id: int = -1,
 ) -> MultiMotionTokens:
-    """Handshake sampling (see the module docstring): returns the same layout as :func:`two_phase_sample`."""
+    """Handshake sampling (see the module docstring): returns the same layout as :func:`two_phase_sample`, ids on
+    the model's device."""
     layout = segment_layout(segment_lengths)
     tokens, text_pad = text_tensors(text, layout.n_segments)
     grid = phase_grid(transitions.T, transitions.T, num_steps, timesteps)

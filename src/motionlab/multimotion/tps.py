@@ -305,7 +305,8 @@ def two_phase_sample(
         guidance_scale: M2D2M's s (2 for multi-motion in the paper); applied jointly in the joint phase.
         joint_text: ``"own"`` (each segment's tokens cross-attend to their own text) or ``"all"``.
     Returns:
-        :class:`MultiMotionTokens` (M, l_max) ids; ``.concatenated()`` gives each instance's whole sequence.
+        :class:`MultiMotionTokens` (M, l_max) ids on the model's device (the text is moved there);
+        ``.concatenated()`` gives each instance's whole sequence.
     """
     layout = segment_layout(segment_lengths)
     tokens, text_pad = text_tensors(text, layout.n_segments)
