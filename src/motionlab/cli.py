@@ -836,11 +836,11 @@ def _settings(args: argparse.Namespace):
     """The run's settings, resolved once from the options and the environment, and made the run's (exported, so
     that worker processes and chapter kernels inherit them); every command reads them from ``args.settings``."""
     from .precision import explain_precision
-    from .settings import apply_settings, resolve_settings
+    from .settings import MAX_THREADS, apply_settings, resolve_settings
     from .train.device import get_device
 
-    if args.threads is not None and args.threads < 1:
-        raise ValueError(f"--threads must be a positive int, got {args.threads}")
+    if args.threads is not None and not 1 <= args.threads <= MAX_THREADS:
+        raise ValueError(f"--threads must be a positive int (at most {MAX_THREADS}), got {args.threads}")
     if args.force_precision:
         if args.precision is None:
             raise ValueError("--force-precision insists on a --precision; give one")

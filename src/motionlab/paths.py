@@ -11,8 +11,9 @@ from pathlib import Path
 
 
 def cache_dir() -> Path:
-    """The cache root (created on demand)."""
-    root = Path(os.environ.get("MOTIONLAB_HOME", Path.home() / ".cache" / "motionlab")).expanduser()
+    """The cache root (created on demand); an empty ``$MOTIONLAB_HOME`` counts as unset, never as the current folder."""
+    home = os.environ.get("MOTIONLAB_HOME", "").strip()
+    root = Path(home or Path.home() / ".cache" / "motionlab").expanduser()
     root.mkdir(parents=True, exist_ok=True)
     return root
 

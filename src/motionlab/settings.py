@@ -46,9 +46,9 @@ class RunSettings:
         if self.compile not in COMPILE_CHOICES:
             raise ValueError(f"compile must be one of {COMPILE_CHOICES}, got {self.compile!r}")
         if self.threads is not None and (
-            isinstance(self.threads, bool) or not isinstance(self.threads, int) or self.threads < 1
-        ):
-            raise ValueError(f"threads must be a positive int or None, got {self.threads!r}")
+            isinstance(self.threads, bool) or not isinstance(self.threads, int) or not 1 <= self.threads <= MAX_THREADS
+        ):  # far above any core count: torch's thread pools crash at 32,767
+            raise ValueError(f"threads must be an int in [1, {MAX_THREADS}] or None, got {self.threads!r}")
 
     @property
     def sizes(self):
@@ -72,6 +72,7 @@ class RunSettings:
 
 
 COMPILE_CHOICES = ("auto", "on", "off")
+MAX_THREADS = 4096  # threads per process; more is a typo, not a machine
 
 
 def env_deterministic() -> bool:

@@ -137,6 +137,8 @@ def test_threads_option_sets_torch_threads(monkeypatch, capsys):
         assert torch.get_num_threads() == 1
         assert main(["--threads", "0", "data", "check", "/nonexistent/folder"]) == 2
         assert "--threads must be a positive int" in capsys.readouterr().err
+        assert main(["--threads", "100000", "data", "check", "/nonexistent/folder"]) == 2  # torch crashed past 32,766
+        assert "at most 4096" in capsys.readouterr().err
         monkeypatch.setenv("MOTIONLAB_THREADS", "two")
         assert main(["data", "check", "/nonexistent/folder"]) == 2
         assert "MOTIONLAB_THREADS" in capsys.readouterr().err

@@ -264,6 +264,21 @@ def test_nothing_convertible_is_an_error_and_leaves_nothing(tmp_path):
     assert list((tmp_path / "empty").iterdir()) == []
 
 
+def test_a_rerun_that_converts_nothing_leaves_the_dataset_as_it_was(takes, tmp_path):
+    """With or without ``force``: a re-run whose takes all fail is an error and changes no byte of the dataset."""
+    out = tmp_path / "ds"
+    _convert(takes, out)
+    before = _snapshot(out)
+    failing = tmp_path / "failing"
+    failing.mkdir()
+    save_bvh(_joints("wave", 30, 0), failing / "wave.bvh")  # too short
+    for force in (False, True):
+        with pytest.raises(ValueError, match="none of the 1 takes"):
+            _convert(failing, out, force=force)
+        assert _snapshot(out) == before, force
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # no half-built folder beside it
+
+
 # --- three real CMU takes ---------------------------------------------------------------------------------
 
 CMU = {

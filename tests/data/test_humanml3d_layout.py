@@ -78,6 +78,19 @@ def test_missing_pieces_are_named(tmp_path):
         MotionDataset(tmp_path / "nope")
 
 
+def test_empty_npy_files_are_named_not_tracebacks(tmp_path):
+    """A 0-byte .npy (a copy cut off at its start) is a problem the check names, and a clear error on loading."""
+    write_tiny_dataset(tmp_path)
+    (tmp_path / "new_joint_vecs" / "000001.npy").write_bytes(b"")
+    assert any("000001.npy cannot be read" in p for p in check_dataset(tmp_path))
+    with pytest.raises(ValueError, match="000001.npy cannot be read"):
+        MotionDataset(tmp_path).split("train")
+    (tmp_path / "Std.npy").write_bytes(b"")
+    assert any("Std.npy cannot be read" in p for p in check_dataset(tmp_path))
+    with pytest.raises(ValueError, match="Std.npy cannot be read"):
+        Normalizer.load(tmp_path)
+
+
 def test_unknown_split(tmp_path):
     write_tiny_dataset(tmp_path)
     with pytest.raises(ValueError, match="unknown split"):

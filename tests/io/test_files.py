@@ -56,6 +56,9 @@ def test_load_joints_from_npy_and_bvh(tmp_path, clip):
     np.save(tmp_path / "bad.npy", np.zeros((4, 5)))
     with pytest.raises(ValueError, match="bad.npy"):
         load_joints(tmp_path / "bad.npy")
+    (tmp_path / "empty.npy").write_bytes(b"")
+    with pytest.raises(ValueError, match="empty.npy cannot be read"):  # numpy raises EOFError here
+        load_joints(tmp_path / "empty.npy")
 
 
 def test_convert_npy_to_bvh_and_html(tmp_path, clip):

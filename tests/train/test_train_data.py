@@ -66,6 +66,9 @@ def test_device_and_seed(monkeypatch):
             get_device("cuda")
     with pytest.raises(ValueError):
         get_device("not-a-device")
+    for other in ("mps", "meta", "xpu"):  # torch parses them; the library runs on the CPU or CUDA only
+        with pytest.raises(ValueError, match="'cpu' or 'cuda'"):
+            get_device(other)
     g1, g2 = seed_everything(3), seed_everything(3)
     assert torch.equal(torch.rand(4, generator=g1), torch.rand(4, generator=g2))
     with pytest.raises(ValueError):
@@ -108,3 +111,13 @@ def test_window_batches_move_with_the_dataset_and_reject_nan():
     bad[0][3, 2] = np.nan
     with pytest.raises(ValueError, match="NaN"):
         WindowDataset(bad, window=4)
+
+
+def test_an_empty_cache_variable_is_not_the_current_folder(monkeypatch, tmp_path):
+    from motionlab.paths import cache_dir
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("HOME", str(tmp_path / "user"))
+    for empty in ("", "  "):
+        monkeypatch.setenv("MOTIONLAB_HOME", empty)
+        assert cache_dir() == tmp_path / "user" / ".cache" / "motionlab"

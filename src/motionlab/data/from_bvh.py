@@ -31,7 +31,8 @@ the length range HumanML3D's loaders keep: 40 to 199 feature frames at 20 fps (c
 Resuming. ``DATASET/meta.json`` records every clip's source (file name, SHA-1, crop) and the rig; a re-run
 into the same folder converts only what is new or changed and rewrites the texts, splits and statistics
 (a pure function of the clips and ``seed``: an unchanged folder gives the same bytes). Clips whose take
-has gone are removed. Any other non-empty ``DATASET`` is refused unless ``force`` (then it is replaced).
+has gone are removed. Any other non-empty ``DATASET`` is refused unless ``force`` (then it is replaced, once the
+new dataset is complete: it is built beside it). A run that converts no take leaves ``DATASET`` as it was.
 """
 
 from __future__ import annotations
@@ -307,7 +308,7 @@ def _previous_meta(out: Path) -> dict | None:
 
 
 def _prepare_out(out: Path, folder: Path, force: bool) -> tuple[dict | None, bool]:
-    """Judge ``out`` before any work: (meta of a run to resume or None, whether ``out`` holds nothing yet)."""
+    """Judge ``out`` before any work: (meta of a run to resume or None, whether a dataset there is to be replaced)."""
     resolved, source = out.resolve(), folder.resolve()
     if resolved == source or resolved in source.parents:
         raise ValueError(f"out {out} must not be the BVH folder or a folder above it")
@@ -317,11 +318,10 @@ def _prepare_out(out: Path, folder: Path, force: bool) -> tuple[dict | None, boo
     if not os.access(existing, os.W_OK):
         raise ValueError(f"cannot write to {existing} (out {out})")
     if not out.exists() or not any(out.iterdir()):
-        return None, True
+        return None, False
     previous = _previous_meta(out)
     if force:
-        shutil.rmtree(out)
-        return None, True
+        return None, True  # replaced only when the new dataset is complete
     if previous is None:
         raise FileExistsError(
             f"out {out} exists, is not empty and is not an earlier from-bvh output; "
@@ -393,8 +393,26 @@ def dataset_from_bvh(
     rig = resolve_rig(mapping, scale, up)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
-    previous, fresh = _prepare_out(out, folder, force)
-    existed = out.exists()
+    previous, replace = _prepare_out(out, folder, force)
+    if not replace:
+        return _build(folder, out, takes, table, rig, int(seed), previous, progress, t0)
+    # built beside ``out`` and swapped in at the end: a run that fails, or is interrupted, leaves ``out`` as it was
+    target = out.resolve()
+    building = target.with_name(f".{target.name}.from-bvh-{os.getpid()}")
+    shutil.rmtree(building, ignore_errors=True)
+    try:
+        report = _build(folder, building, takes, table, rig, int(seed), None, progress, t0)
+        shutil.rmtree(target)
+        building.rename(target)
+    finally:
+        shutil.rmtree(building, ignore_errors=True)
+    report.out = out
+    return report
+
+
+def _build(folder, out, takes, table, rig, seed, previous, progress, t0) -> FromBvhReport:
+    """Convert into ``out``, resuming ``previous`` (an earlier run's meta) where given."""
+    existed, fresh = out.exists(), previous is None
 
     plans, skipped, notes = plan_clips(takes, table)
     settings = {
@@ -448,17 +466,16 @@ def dataset_from_bvh(
     )
 
     ids = report.clips
-    meta["clips"] = {i: meta["clips"][i] for i in ids}
-    _remove_other_clips(out, set(ids))
-    if not ids:
-        if fresh:  # leave ``out`` as it was: absent or empty
+    if not ids:  # nothing converted or reused: ``out`` is left as it was (absent, empty, or the earlier dataset)
+        if fresh:  # it was absent or empty
             shutil.rmtree(out, ignore_errors=True)
             if existed:
                 out.mkdir()
-        else:
-            _write_meta(out, meta)
         reasons = "; ".join(f"{name}: {why}" for name, why in list(skipped.items())[:5])
-        raise ValueError(f"none of the {len(takes)} takes in {folder} could be converted ({reasons})")
+        more = f" (+{len(skipped) - 5} more)" if len(skipped) > 5 else ""
+        raise ValueError(f"none of the {len(takes)} takes in {folder} could be converted ({reasons}{more})")
+    meta["clips"] = {i: meta["clips"][i] for i in ids}
+    _remove_other_clips(out, set(ids))
 
     splits, split_notes = _assign_splits(ids, int(seed))
     report.notes += split_notes

@@ -121,7 +121,7 @@ def check_dataset(root: str | os.PathLike) -> list[str]:
             else:
                 try:
                     values = np.load(feat, mmap_mode="r", allow_pickle=False)
-                except (OSError, ValueError) as err:
+                except (OSError, ValueError, EOFError) as err:
                     problems.append(f"{split}: new_joint_vecs/{clip_id}.npy cannot be read ({err})")
                     values = None
                 if values is not None and values.ndim != 2:
@@ -145,7 +145,7 @@ def check_dataset(root: str | os.PathLike) -> list[str]:
             problems.append(f"feature dimension {dim} is neither HumanML3D (263) nor KIT-ML (251)")
     try:
         stats_dim = np.load(root / "Mean.npy", allow_pickle=False).shape
-    except (OSError, ValueError):
+    except (OSError, ValueError, EOFError):
         stats_dim = None  # already reported by _check_statistics
     if dims and stats_dim is not None and stats_dim != (next(iter(dims)),):
         problems.append(f"Mean.npy has shape {stats_dim}, features have {sorted(dims)} dims")
@@ -159,7 +159,7 @@ def _check_statistics(root: Path) -> list[str]:
     for name in ("Mean.npy", "Std.npy"):
         try:
             arrays[name] = np.load(root / name, allow_pickle=False)
-        except (OSError, ValueError) as err:
+        except (OSError, ValueError, EOFError) as err:
             problems.append(f"{name} cannot be read ({err})")
             continue
         values = arrays[name]
@@ -273,7 +273,7 @@ class MotionDataset:
                 motion = (
                     np.load(feat_path, allow_pickle=False).astype(np.float32) if read_motion else _shape_only(feat_path)
                 )
-            except (OSError, ValueError) as err:
+            except (OSError, ValueError, EOFError) as err:
                 raise ValueError(f"{feat_path} cannot be read ({err})") from None
             if motion.ndim != 2 or motion.shape[1] != kind.feature_dim:
                 raise ValueError(f"{feat_path} has shape {motion.shape}, expected (T, {kind.feature_dim})")

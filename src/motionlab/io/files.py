@@ -115,7 +115,7 @@ def load_joints(
 def _read_npy(path: Path) -> np.ndarray:
     try:
         return np.load(path, allow_pickle=False)
-    except (OSError, ValueError) as err:
+    except (OSError, ValueError, EOFError) as err:  # EOFError: an empty file
         raise ValueError(f"{path} cannot be read as a .npy array ({err})") from None
 
 

@@ -62,7 +62,13 @@ class Normalizer:
         missing = [n for n in ("Mean.npy", "Std.npy") if not (folder / n).is_file()]
         if missing:
             raise FileNotFoundError(f"{folder} is missing {', '.join(missing)}")
-        return cls(np.load(folder / "Mean.npy"), np.load(folder / "Std.npy"))
+        arrays = []
+        for name in ("Mean.npy", "Std.npy"):
+            try:
+                arrays.append(np.load(folder / name, allow_pickle=False))
+            except (OSError, ValueError, EOFError) as err:  # EOFError: an empty file
+                raise ValueError(f"{folder / name} cannot be read as a .npy array ({err or 'empty file'})") from None
+        return cls(*arrays)
 
     def save(self, folder: str | os.PathLike) -> None:
         """Write ``Mean.npy`` and ``Std.npy`` (float32, as HumanML3D ships them)."""

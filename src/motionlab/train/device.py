@@ -24,6 +24,8 @@ def get_device(device: str | torch.device | None = None) -> torch.device:
         dev = torch.device(choice)
     except RuntimeError as err:
         raise ValueError(f"device must be a torch device string such as 'cpu' or 'cuda:0', got {choice!r}") from err
+    if dev.type not in ("cpu", "cuda"):  # the library's kernels, precisions and tests cover these two
+        raise ValueError(f"device must be 'cpu' or 'cuda' (optionally 'cuda:N'), got {choice!r}")
     if dev.type == "cuda" and not torch.cuda.is_available():
         raise ValueError(f"device {choice!r} was requested but CUDA is not available on this machine")
     return dev
