@@ -105,7 +105,7 @@ def _data_make_embedded(args: argparse.Namespace) -> int:
             print(f"error: {out} already exists; choose a new folder", file=sys.stderr)
             return 2
         _check_writable_folder(out.parent, "--out")
-        n = args.clips or run_sizes(args.settings.profile).embedded_clips
+        n = args.clips if args.clips is not None else run_sizes(args.settings.profile).embedded_clips  # 0 is refused
         path = write_embedded_dataset(out, n_clips=n, seed=args.seed)
     print(path)
     return 0
@@ -345,6 +345,12 @@ def _generate(args: argparse.Namespace) -> int:
     if args.T_s is not None and len(texts) == 1:
         raise ValueError("--T-s is the Two-Phase Sampling switch step; it needs two or more texts")
     profile = args.settings.profile
+    if args.T_s is not None:  # judged before any training, against the profile's diffusion steps
+        from .diffusion.transformer import transformer_config
+
+        T = transformer_config(profile).timesteps
+        if not 0 <= args.T_s <= T:
+            raise ValueError(f"--T-s must be in [0, T={T}] (the model's diffusion steps), got {args.T_s}")
     _check_generation_lengths(lengths, profile)
     _check_output(args.out, args.force, "--out")  # before any training or sampling
     with _probe_then_run():
@@ -626,7 +632,7 @@ def _add_evaluate(sub) -> None:
         default=None,
         help="evaluations for the 95%% intervals (default: 2 smoke, 5 laptop, 20 full)",
     )
-    common.add_argument("--seed", type=int, default=0, help="seeds every random draw (default: 0)")
+    common.add_argument("--seed", type=_seed_argument, default=0, help="seeds every random draw (default: 0)")
     common.add_argument("--split", choices=["train", "val", "test"], default="test", help="(default: test)")
     common.add_argument(
         "--json", type=Path, default=None, help="also write the table to this .json file (default: none)"
@@ -931,7 +937,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="dataset size (default: $MOTIONLAB_PROFILE or laptop)",
     )
-    make.add_argument("--seed", type=int, default=0, help="seeds the procedural clips and their split")
+    make.add_argument("--seed", type=_seed_argument, default=0, help="seeds the procedural clips and their split")
     make.add_argument(
         "--out", type=Path, default=None, help="write here instead of the cache (must not exist; default: the cache)"
     )
@@ -961,7 +967,7 @@ def build_parser() -> argparse.ArgumentParser:
     from_bvh.add_argument("--mapping", default="cmu", choices=["cmu", "t2m"], help="joint names of the BVH rig")
     from_bvh.add_argument("--scale", type=float, default=None, help="BVH units to metres (default: the rig's)")
     from_bvh.add_argument("--up", choices=["y", "z"], default=None, help="up axis of the BVH (default: y)")
-    from_bvh.add_argument("--seed", type=int, default=0, help="seeds the train/val/test split (default: 0)")
+    from_bvh.add_argument("--seed", type=_seed_argument, default=0, help="seeds the train/val/test split (default: 0)")
     from_bvh.add_argument("--force", action="store_true", help="replace an existing non-empty --out folder")
     from_bvh.set_defaults(func=_data_from_bvh)
 
@@ -1106,7 +1112,9 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument(
         "--T-s", dest="T_s", type=int, default=None, help="TPS switch step, with two or more texts (default: 0.9 T)"
     )
-    gen.add_argument("--seed", type=int, default=0, help="seeds the sampling: the same seed gives the same motion")
+    gen.add_argument(
+        "--seed", type=_seed_argument, default=0, help="seeds the sampling: the same seed gives the same motion"
+    )
     gen.add_argument(
         "--profile",
         choices=["smoke", "laptop", "full"],
@@ -1169,6 +1177,20 @@ def _interrupted(started: float) -> str:
     ckpt = latest_checkpoint(work)
     where = f"at its checkpoint of step {int(ckpt.name[5:]):,}" if ckpt else "from the start (no checkpoint yet)"
     return f"interrupted while training {name!r} ({profile}); the same command resumes it {where}"
+
+
+MAX_SEED = 2**63 - 1  # the largest seed torch's generators take
+
+
+def _seed_argument(text: str) -> int:
+    """``--seed``: an integer in [0, 2**63 - 1], judged when the options are parsed (before any work)."""
+    try:
+        seed = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if not 0 <= seed <= MAX_SEED:
+        raise argparse.ArgumentTypeError(f"must be in [0, 2**63 - 1], got {text}")
+    return seed
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -64,6 +64,27 @@ def test_generate_options_are_judged_before_work(options, message, tmp_path, iso
     assert nothing_trained(isolated_cache) and not (tmp_path / "wave.npy").exists()
 
 
+def test_a_switch_step_beyond_the_models_steps_is_refused_before_training(tmp_path, isolated_cache, capsys):
+    argv = ["generate", "a person waves", "a person sits", *SMOKE, "--out", str(tmp_path / "w.npy"), "--T-s", "1000"]
+    assert main(argv) == 2  # it was found only after training the models
+    one_error_line(capsys.readouterr().err, "--T-s must be in [0, T=100]")
+    assert nothing_trained(isolated_cache)
+
+
+@pytest.mark.parametrize("seed", ["-1", "99999999999999999999", "one"])
+def test_a_seed_torch_cannot_take_is_refused_when_the_options_are_read(seed, tmp_path, isolated_cache, capsys):
+    with pytest.raises(SystemExit) as refused:  # argparse's own error: usage line, then the reason
+        main(["generate", "a person waves", *SMOKE, "--out", str(tmp_path / "w.npy"), "--seed", seed])
+    assert refused.value.code == 2 and "argument --seed: must be" in capsys.readouterr().err
+    assert nothing_trained(isolated_cache)
+
+
+def test_make_embedded_refuses_zero_clips(tmp_path, isolated_cache, capsys):
+    assert main(["data", "make-embedded", "--profile", "smoke", "--out", str(tmp_path / "d"), "--clips", "0"]) == 2
+    one_error_line(capsys.readouterr().err, "n_clips must be an integer >= 42")
+    assert not (tmp_path / "d").exists()
+
+
 def test_make_embedded_clips_without_out_is_rejected(isolated_cache, capsys):
     assert main(["data", "make-embedded", "--profile", "smoke", "--clips", "60"]) == 2
     one_error_line(capsys.readouterr().err, "--clips needs --out")
