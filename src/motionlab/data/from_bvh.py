@@ -410,7 +410,17 @@ def dataset_from_bvh(
     return report
 
 
-def _build(folder, out, takes, table, rig, seed, previous, progress, t0) -> FromBvhReport:
+def _build(
+    folder: Path,
+    out: Path,
+    takes: list[Path],
+    table: Mapping[str, Mapping[tuple[int, int | None], list[str]]] | None,
+    rig: BvhRig,
+    seed: int,
+    previous: dict | None,
+    progress: bool,
+    t0: float,
+) -> FromBvhReport:
     """Convert into ``out``, resuming ``previous`` (an earlier run's meta) where given."""
     existed, fresh = out.exists(), previous is None
 

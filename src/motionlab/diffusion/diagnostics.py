@@ -35,7 +35,7 @@ from motionlab.diffusion.posterior import q_sample
 from motionlab.diffusion.sampling import _model_log_p_x0, classifier_free_guidance
 from motionlab.diffusion.schedule import Schedule
 from motionlab.diffusion.transitions import Transitions, codebook_distance, dynamic_matrix, uniform_matrix
-from motionlab.train.device import model_device
+from motionlab.train.device import model_device, to_device
 
 CONDITIONS = ("text", "null")
 TV_REDUCTIONS = ("max", "mean")
@@ -145,8 +145,7 @@ def x0_entropy(
     if not torch.is_tensor(text) or text.ndim != 3 or text.shape[0] != rows.shape[0]:
         raise ValueError(f"text must be (B={rows.shape[0]}, S, d) features, got {tuple(getattr(text, 'shape', ()))}")
     dev = model_device(model, text.device)  # the network runs where it lives
-    text = text.to(dev)
-    text_padding_mask = text_padding_mask.to(dev) if text_padding_mask is not None else None
+    text, text_padding_mask = to_device((text, text_padding_mask), dev)
     padding = (rows < 0).to(dev)  # (B, L)
     clean = rows.clamp_min(0).to(dev)
     real = (~padding).double()

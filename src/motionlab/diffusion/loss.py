@@ -22,7 +22,7 @@ from motionlab.checks import values_checked
 from motionlab.diffusion.posterior import LOG_FLOOR, log_p_posterior, log_q_posterior, q_sample
 from motionlab.diffusion.transitions import Transitions
 from motionlab.precision import in_fp32
-from motionlab.train.device import model_device
+from motionlab.train.device import model_device, to_device
 
 AUX_WEIGHT = 5e-4  # λ of M2D2M Eq. 3 (appendix A.1)
 
@@ -103,9 +103,7 @@ def diffusion_loss(
     K = transitions.num_codes
     _check_diffusion_loss_inputs(x0, padding_mask, K)
     dev = model_device(model, x0.device)  # the batch joins the network (a no-op for the trainer's batches)
-    x0, text = x0.to(dev), text.to(dev)
-    text_padding_mask = text_padding_mask.to(dev) if text_padding_mask is not None else None
-    padding_mask = padding_mask.to(dev) if padding_mask is not None else None
+    x0, text, text_padding_mask, padding_mask = to_device((x0, text, text_padding_mask, padding_mask), dev)
     B = x0.shape[0]
     if t is None:
         t = sample_timesteps(B, transitions.T, generator)

@@ -30,7 +30,7 @@ from torch import Tensor, nn
 from motionlab.diffusion.posterior import LOG_FLOOR, gumbel_sample, log_p_posterior
 from motionlab.diffusion.transitions import Transitions
 from motionlab.precision import in_precision, network_autocast, network_precision
-from motionlab.train.device import model_device
+from motionlab.train.device import model_device, to_device
 
 GUIDANCE_SPACES = ("x0", "posterior")
 
@@ -184,9 +184,8 @@ def denoise_step(
     """
     _check_denoise_step_inputs(transitions, t, t_prev, guidance_on)
     where, dev = x_t.device, model_device(model, x_t.device)
-    x_t, text = x_t.to(dev), text.to(dev)
-    text_padding_mask, padding_mask, cross_mask, self_mask = (
-        m.to(dev) if m is not None else None for m in (text_padding_mask, padding_mask, cross_mask, self_mask)
+    x_t, text, text_padding_mask, padding_mask, cross_mask, self_mask = to_device(
+        (x_t, text, text_padding_mask, padding_mask, cross_mask, self_mask), dev
     )
     kw = dict(
         text_padding_mask=text_padding_mask, padding_mask=padding_mask, cross_mask=cross_mask, self_mask=self_mask

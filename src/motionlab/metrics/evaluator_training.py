@@ -38,7 +38,7 @@ from torch import nn
 from ..profiles import get_profile
 from ..representation import Normalizer
 from ..sizes import EVALUATOR, resized
-from ..train import TrainConfig, Trainer, train_or_load
+from ..train import TrainConfig, Trainer, model_device, train_or_load
 from .distribution import diversity, fid
 from .evaluator import EvaluatorConfig, TextMotionEvaluator, contrastive_loss
 from .retrieval import retrieval_metrics
@@ -87,7 +87,7 @@ class EvaluatorNetworks(nn.Module):
     def encode_text(self, ids: torch.Tensor, pos_onehot: torch.Tensor, lengths: torch.Tensor) -> torch.Tensor:
         """Word ids ``(B, L)``, POS one-hots ``(B, L, 15)``, lengths ``(B,)`` -> ``(B, dim_coemb)``, on the
         networks' device."""
-        return self.evaluator.encode_text(self.words(ids.to(next(self.parameters()).device)), pos_onehot, lengths)
+        return self.evaluator.encode_text(self.words(ids.to(model_device(self, ids.device))), pos_onehot, lengths)
 
     def encode_motion(self, motions: torch.Tensor, lengths: torch.Tensor) -> torch.Tensor:
         """Normalised, zero-padded ``(B, T, D)``, lengths (multiples of 4) ``(B,)`` -> ``(B, dim_coemb)``."""

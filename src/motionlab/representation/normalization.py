@@ -67,7 +67,7 @@ class Normalizer:
             try:
                 arrays.append(np.load(folder / name, allow_pickle=False))
             except (OSError, ValueError, EOFError) as err:  # EOFError: an empty file
-                raise ValueError(f"{folder / name} cannot be read as a .npy array ({err or 'empty file'})") from None
+                raise ValueError(f"{folder / name} cannot be read as a .npy array ({err})") from None
         return cls(*arrays)
 
     def save(self, folder: str | os.PathLike) -> None:
