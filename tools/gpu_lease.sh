@@ -23,7 +23,8 @@ set -uo pipefail
 cd "$(dirname "$0")/.."
 OUT=${OUT:-_build/gpu}
 mkdir -p "$OUT"
-export PYTHONPATH=src${PYTHONPATH:+:$PYTHONPATH}
+# absolute: the tests start Python in other folders (a worker, torchrun's ranks), where a relative src/ finds nothing
+export PYTHONPATH=$PWD/src${PYTHONPATH:+:$PYTHONPATH}
 
 if [ -n "${SCALE_ONLY:-}" ]; then
   version=$(python -c "from motionlab.data.embedded.generator import VERSION; print(VERSION)")
@@ -57,8 +58,9 @@ if [ -z "${TESTS_ONLY:-}" ]; then
 fi
 
 if [ -z "${BENCH_ONLY:-}" ]; then
-  MOTIONLAB_DEVICE=cuda MOTIONLAB_PROFILE=smoke timeout "${TEST_TIMEOUT:-420}" \
-    python -m pytest -q tests --ignore=tests/book -p no:cacheprovider -o addopts="-m 'not slow'" \
+  MOTIONLAB_DEVICE=${TEST_DEVICE:-cuda} MOTIONLAB_PROFILE=smoke timeout "${TEST_TIMEOUT:-420}" \
+    python -m pytest -q tests --ignore=tests/book -p no:cacheprovider -o addopts="-m 'not slow'" -rfEs \
+    --continue-on-collection-errors \
     > "$OUT/pytest-cuda.txt" 2>&1
   echo "pytest exit $?" >> "$OUT/pytest-cuda.txt"
 fi

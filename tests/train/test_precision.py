@@ -226,7 +226,9 @@ def _extract_library_before(tmp: Path) -> Path | None:
     return tmp / "before" / "src"
 
 
-def _probe(folder: Path, home: Path, src: Path | None) -> dict:
+def _probe(folder: Path, home: Path, src: Path) -> dict:
+    """Train and sample in a fresh process with the library at ``src`` (never an installed copy, which a GPU image
+    does not have and an editable install could point elsewhere)."""
     env = {
         **os.environ,
         "MOTIONLAB_HOME": str(home),
@@ -234,7 +236,7 @@ def _probe(folder: Path, home: Path, src: Path | None) -> dict:
         "MOTIONLAB_DEVICE": "cpu",  # the bit-for-bit claim is about the CPU's fp32 path
         "MOTIONLAB_THREADS": "1",
         "OMP_NUM_THREADS": "1",
-        "PYTHONPATH": str(src) if src else "",
+        "PYTHONPATH": str(src),
     }
     done = subprocess.run(
         [sys.executable, str(Path(__file__).with_name("fp32_probe.py")), str(folder)],
@@ -256,8 +258,8 @@ def test_fp32_is_bit_identical_to_the_code_before_precision(tmp_path):
     from motionlab.data.embedded import write_embedded_dataset
 
     data = write_embedded_dataset(tmp_path / "data", n_clips=60, seed=0)
-    now, then = _probe(data, tmp_path / "home-now", None), _probe(data, tmp_path / "home-then", before)
-    assert then.pop("library").startswith(str(before)) and not now.pop("library").startswith(str(before))
+    now, then = _probe(data, tmp_path / "home-now", REPO / "src"), _probe(data, tmp_path / "home-then", before)
+    assert then.pop("library").startswith(str(before)) and now.pop("library").startswith(str(REPO / "src"))
     assert now == then
 
 

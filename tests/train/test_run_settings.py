@@ -26,6 +26,7 @@ def test_the_settings_come_from_options_then_the_environment(monkeypatch):
 
 
 def test_applying_exports_them_and_switches_torch_to_deterministic_kernels(monkeypatch):
+    monkeypatch.delenv("MOTIONLAB_THREADS", raising=False)  # a caller's thread count would be read back as the run's
     settings = apply_settings(RunSettings("smoke", "fp32", deterministic=True, compile="off"))
     assert torch.are_deterministic_algorithms_enabled() and torch.backends.cudnn.deterministic
     assert resolve_settings() == settings  # what a worker process reads back from the environment
