@@ -8,8 +8,9 @@ one GPU run of about five minutes (the machine's start included):
 - ``train``: for the MoMask RVQ tokenizer (batch 256 × 64 frames), the DisCoRD decoder (768 × 64) and M2D2M's text
   encoder + denoiser (64 captions) at the ``full`` sizes: the library's ``Trainer.train_step`` (batches drawn and
   built by the library, clipping, EMA, logging), the module's raw step (forward, backward and a fused AdamW step on
-  one device-resident batch) and, on CUDA, the raw step with the network compiled (its compile time recorded), in
-  interleaved rounds; FLOPs per step (``torch.utils.flop_counter``) and the share of the measured bf16 peak;
+  one device-resident batch) and, on CUDA, the raw step with the network compiled (its compile time recorded) and,
+  for the launch-bound denoiser, compiled with CUDA graphs (``mode="reduce-overhead"``), in interleaved rounds;
+  FLOPs per step (``torch.utils.flop_counter``) and the share of the measured bf16 peak;
 - ``decode``: DisCoRD's Table E grid: 196 frames (49 tokens × 6 layers), batch 1 and 32, 2 and 16 midpoint grid
   points, bf16 and fp32, the tokenizer's feed-forward decoder beside it.
 
@@ -138,9 +139,9 @@ class RawStep:
     What a training loop costs when it does nothing but the arithmetic; the library's step is compared with it.
     """
 
-    def __init__(self, model, loss_fn, batch, device: torch.device, precision: str) -> None:
+    def __init__(self, model, loss_fn, batch, device: torch.device, precision: str, graphs: bool = False) -> None:
         self.model, self.loss_fn, self.batch = model.to(device).train(), loss_fn, batch
-        self.device, self.precision = device, precision
+        self.device, self.precision, self.graphs = device, precision, graphs
         params = [p for p in model.parameters() if p.requires_grad]
         self.optimizer = torch.optim.AdamW(params, lr=1e-4, fused=True)
         self.generator = torch.Generator(device=device).manual_seed(1)
@@ -150,6 +151,8 @@ class RawStep:
             return self.loss_fn(self.model, self.batch, self.generator)["loss"]
 
     def __call__(self) -> None:
+        if self.graphs:  # a new iteration: the graphs may reuse the memory of the last step's outputs
+            torch.compiler.cudagraph_mark_step_begin()
         self.optimizer.zero_grad(set_to_none=True)
         self.loss().backward()
         self.optimizer.step()
@@ -298,11 +301,13 @@ def train_section(args, device: torch.device, dataset, peak: float, save: Callab
             variants = {"library train_step": repeated(trainer.train_step, steps), "module": repeated(raw, steps)}
             compile_seconds = {}
             if args.compile and precision == args.precisions[0]:  # one compile per model: each costs tens of seconds
-                compiled = RawStep(twin(), loss_fn, batch, device, precision)
-                for part in network_of(name, compiled.model):
-                    part.compile()
-                compile_seconds["module, compiled"] = seconds_of_first_call(compiled, device)
-                variants["module, compiled"] = repeated(compiled, steps)
+                modes = {"module, compiled": "default"}
+                if name in args.graphs:
+                    modes["module, compiled, CUDA graphs"] = "reduce-overhead"
+                for variant, mode in modes.items():
+                    compiled = compiled_step(name, twin(), loss_fn, batch, device, precision, mode)
+                    compile_seconds[variant] = seconds_of_first_call(compiled, device)
+                    variants[variant] = repeated(compiled, steps)
             official = official_step(args, name, trainer, batch, device, precision)
             if official is not None:
                 variants["official module"] = repeated(official, steps)
@@ -332,6 +337,15 @@ def train_section(args, device: torch.device, dataset, peak: float, save: Callab
             del trainer, raw, variants
             if device.type == "cuda":
                 torch.cuda.empty_cache()
+
+
+def compiled_step(name: str, model, loss_fn, batch, device: torch.device, precision: str, mode: str) -> RawStep:
+    """The raw step with the networks of ``model`` compiled in ``mode`` (``"reduce-overhead"``: CUDA graphs too,
+    replayed with one launch each, on a CUDA device; on a CPU it compiles as ``"default"`` does)."""
+    step = RawStep(model, loss_fn, batch, device, precision, graphs=mode == "reduce-overhead")
+    for part in network_of(name, step.model):
+        part.compile(mode=mode)
+    return step
 
 
 def official_step(args, name: str, trainer, batch, device: torch.device, precision: str) -> RawStep | None:
@@ -425,7 +439,7 @@ def print_records(records: list[dict]) -> None:
             share = f"{100 * r['share_of_bf16_peak']:5.1f}% of bf16 peak" if r["share_of_bf16_peak"] else ""
             extra = f", compiled in {r['compile_s']:.0f} s" if "compile_s" in r else ""
             print(
-                f"  train {r['model']:8s} {r['precision']} {r['variant']:20s} {r['step_ms_median']:8.1f} ms "
+                f"  train {r['model']:8s} {r['precision']} {r['variant']:30s} {r['step_ms_median']:8.1f} ms "
                 f"({r['step_ms_min']:.1f}–{r['step_ms_max']:.1f}) ×{r['ratio_to_module']:.2f} of the module  "
                 f"{r['tflop_per_step']:.2f} TFLOP {share}{extra}"
             )
@@ -453,6 +467,14 @@ def main(argv: list[str] | None = None) -> list[dict]:
         default=None,
         help="also time the compiled module (default: on CUDA only)",
     )
+    parser.add_argument(
+        "--graphs",
+        nargs="*",
+        choices=MODELS,
+        default=None,
+        help="with --compile, also time these models' module compiled with CUDA graphs (default: t2m on CUDA, "
+        "whose step is launch-bound; none on a CPU, where there are no graphs to replay)",
+    )
     parser.add_argument("--official-discord", type=Path, default=None, help="a checkout of whwjdqls/DisCoRD")
     parser.add_argument("--official-momask", type=Path, default=None, help="a checkout of EricGuo5513/momask-codes")
     parser.add_argument("--json", type=Path, default=None, help="write the records here")
@@ -463,6 +485,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     device = torch.device(args.device or ("cuda" if torch.cuda.is_available() and not args.smoke else "cpu"))
     args.profile = "smoke" if args.smoke else "full"
     args.compile = device.type == "cuda" if args.compile is None else args.compile
+    args.graphs = (["t2m"] if device.type == "cuda" else []) if args.graphs is None else args.graphs
     if device.type == "cpu":
         apply_threads(args.threads)
     n = 256 if args.smoke else 8192

@@ -65,3 +65,29 @@ def test_the_official_modules_packages_are_named(bench_gpu, tmp_path, monkeypatc
     ]
     args.sections = ["train"]  # torchdiffeq drives only the official decoding
     assert bench_gpu.official_problems(args) == ["--official-discord needs einops: pip install einops"]
+
+
+def test_the_denoiser_is_also_timed_compiled_with_cuda_graphs(bench_gpu, tmp_path, monkeypatch):
+    modes = []
+
+    def compile_lazily(module, *args, mode="default", **kwargs):  # records what was asked; compiling takes a minute
+        modes.append((type(module).__name__, mode))
+
+    monkeypatch.setattr(bench_gpu.torch.nn.Module, "compile", compile_lazily)
+    marks = []
+    monkeypatch.setattr(bench_gpu.torch.compiler, "cudagraph_mark_step_begin", lambda: marks.append(1))
+    out = tmp_path / "gpu.json"
+    argv = ["--smoke", "--sections", "train", "--models", "t2m", "--precisions", "fp32", "--repeats", "1"]
+    bench_gpu.main([*argv, "--steps", "2", "--compile", "--graphs", "t2m", "--json", str(out)])
+    train = {r["variant"]: r for r in json.loads(out.read_text()) if r["section"] == "train"}
+    assert set(train) == {"library train_step", "module", "module, compiled", "module, compiled, CUDA graphs"}
+    assert modes == [("DenoisingTransformer", "default"), ("DenoisingTransformer", "reduce-overhead")]
+    assert len(marks) == 1 + 2 * 2  # every step of the graphed variant begins an iteration: first call, warm-up, round
+    assert train["module, compiled, CUDA graphs"]["compile_s"] > 0
+
+
+def test_cuda_graphs_are_timed_on_cuda_only_unless_asked(bench_gpu, monkeypatch):
+    seen = {}
+    monkeypatch.setattr(bench_gpu, "train_section", lambda args, *rest: seen.update(graphs=args.graphs))
+    bench_gpu.main(["--smoke", "--sections", "train"])
+    assert seen["graphs"] == []

@@ -27,7 +27,7 @@ MODEL_NAMES = {
     "discord": "DisCoRD decoder",
     "t2m": "M2D2M text encoder + denoiser",
 }
-VARIANTS = ("library train_step", "module", "module, compiled", "official module")
+VARIANTS = ("library train_step", "module", "module, compiled", "module, compiled, CUDA graphs", "official module")
 
 
 @dataclass(frozen=True)
