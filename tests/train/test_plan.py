@@ -125,3 +125,35 @@ def test_ctrl_c_keeps_finished_models_and_a_second_run_resumes(tmp_path):
     again = subprocess.run([sys.executable, str(script), str(tmp_path)], capture_output=True, text=True, timeout=60)
     assert again.returncode == 0
     assert "fast" in again.stdout and "cached" in again.stdout
+
+
+def test_the_plan_line_counts_compile_time():
+    jobs = [Job("a", print, estimate_s=60), Job("b", print, ("a",), 60, compile_s=30), Job("c", print, ("a",), 60)]
+    assert expected_wall_seconds(jobs, 1) == 210 and expected_wall_seconds(jobs, 2) == 150
+    line = plan_line(jobs, 1)
+    assert line.startswith("training 3 models first: about 3.5 min (")
+    assert line.endswith(": a, b, c; 0.5 min of it compiling b; the compiled kernels are cached for the next run")
+    untimed = plan_line([Job("a", print, estimate_s=60, compile_s=None)], 1)
+    assert "about 1.0 min (" in untimed and ": a; a also compiles first, for a time not measured; the " in untimed
+    assert "compil" not in plan_line(jobs[:1], 1)
+
+
+def test_book_jobs_take_compile_times_from_the_gpu_benchmark(monkeypatch):
+    from motionlab.build.book_models import COMPILED_PART, compile_estimates
+    from motionlab.report.gpu import newest_gpu_run
+    from motionlab.train.compiling import COMPILED_ON_CUDA
+
+    monkeypatch.delenv("MOTIONLAB_COMPILE", raising=False)
+    assert set(compile_estimates("cpu", "fp32").values()) == {0.0}  # auto: nothing compiles on a CPU
+    on_cuda = compile_estimates("cuda", "bf16")
+    run = newest_gpu_run()
+    for kind, seconds in on_cuda.items():
+        if COMPILED_PART.get(kind) in COMPILED_ON_CUDA:
+            assert seconds is not None and seconds > 0 and seconds == run.compile_seconds(COMPILED_PART[kind])
+        else:
+            assert seconds == 0.0
+    monkeypatch.setenv("MOTIONLAB_COMPILE", "on")
+    on_cpu = compile_estimates("cpu", "fp32")
+    assert on_cpu["tokenizer"] is None and on_cpu["evaluator"] == 0.0  # compiled, never timed on a CPU
+    monkeypatch.setenv("MOTIONLAB_COMPILE", "off")
+    assert set(compile_estimates("cuda", "bf16").values()) == {0.0}

@@ -83,6 +83,30 @@ BF16_SPEEDUP: dict[str, float] = {
 }
 
 
+# The network each kind of model compiles when it trains (motionlab.train.compiling's parts); the others never do.
+COMPILED_PART = {"tokenizer": "tokenizer", "discord": "discord", "discord_short": "discord", "t2m": "denoiser"}
+
+
+def compile_estimates(device, precision: str) -> dict[str, float | None]:
+    """Seconds each kind of model spends compiling before it trains on ``device`` under the run's compile setting:
+    0 where nothing compiles, the newest GPU benchmark's measured compile time on CUDA, None where it compiles and
+    nothing measured how long (on a CPU the compile time was never recorded)."""
+    import torch
+
+    from ..report.gpu import BENCH_MODEL_OF_PART, newest_gpu_run
+    from ..train.compiling import should_compile
+
+    run = newest_gpu_run() if torch.device(device).type == "cuda" else None
+    out: dict[str, float | None] = {}
+    for kind in ESTIMATES_S["laptop"]:
+        part = COMPILED_PART.get(kind)
+        if part is None or not should_compile(part, device):
+            out[kind] = 0.0
+        else:
+            out[kind] = run.compile_seconds(BENCH_MODEL_OF_PART[part], precision) if run is not None else None
+    return out
+
+
 def job_precision(name: str, run_precision: str) -> str:
     """The precision the book's model ``name`` trains in when the run's is ``run_precision``: the run's, except for
     the evaluator, which always trains in fp32."""
@@ -138,7 +162,9 @@ def book_jobs(
     from ..train.device import get_device
 
     profile = get_profile(profile)
-    cost = training_estimates(profile, network_precision(get_device(None)))
+    device = get_device(None)
+    cost = training_estimates(profile, network_precision(device))
+    compiling = compile_estimates(device, network_precision(device))
     on = {"data": data}
 
     def job(name: str, kind: str, after: tuple[str, ...] = (), **kwargs) -> Job:
@@ -146,7 +172,7 @@ def book_jobs(
             run = partial(make_data, profile, seed, **on)
         else:
             run = partial(make_model, profile, seed, name, **on, **kwargs)
-        return Job(name, run, after, cost[kind], partial(is_cached, run))
+        return Job(name, run, after, cost[kind], partial(is_cached, run), compiling[kind])
 
     vq, rvq, flow = ("tokenizer/vq",), ("tokenizer/rvq",), {"overrides": flow_options}
     replicates = chapter_sizes(profile).transitions.training_seeds[1:]

@@ -38,6 +38,13 @@ class Job:
     after: tuple[str, ...] = ()
     estimate_s: float = 0.0  # expected training seconds on one core of the reference machine
     is_cached: Callable[[], bool] | None = None
+    # Seconds spent compiling the job's networks before it trains (0: nothing compiled; None: compiled, not measured).
+    compile_s: float | None = 0.0
+
+    @property
+    def expected_s(self) -> float:
+        """Training plus (measured) compiling seconds."""
+        return self.estimate_s + (self.compile_s or 0.0)
 
 
 @dataclass
@@ -91,10 +98,11 @@ def _describe(todo: Sequence[Job], workers: int) -> str:
 
     It leads with what a reader waits for, the wall time, and gives the CPU minutes only when they differ from it
     (several workers), e.g. ``training 3 models first: about 0.5 min (fp32, ...): data, tokenizer/vq, t2m/dynamic``.
+    Jobs that compile their networks first count the compile time in it and are named after the list.
     """
     if not todo:
         return ""
-    total = sum(job.estimate_s for job in todo)
+    total = sum(job.expected_s for job in todo)
     wall = expected_wall_seconds(todo, workers)
     names = ", ".join(job.name for job in todo)
     when = f"about {format_minutes(wall)}"
@@ -105,7 +113,25 @@ def _describe(todo: Sequence[Job], workers: int) -> str:
 
     precision, why = explain_precision(None, get_device(None))
     count = f"{len(todo)} model{'s' if len(todo) != 1 else ''}"
-    return f"training {count} first: {when} ({precision}, {why}; at the pace of the slowest CPU measured): {names}"
+    line = f"training {count} first: {when} ({precision}, {why}; at the pace of the slowest CPU measured): {names}"
+    return line + _compiling(todo)
+
+
+def _compiling(todo: Sequence[Job]) -> str:
+    """What the plan line adds for jobs that compile first, e.g. ``"; 0.9 min of it compiling discord/rvq, discord/vq;
+    the compiled kernels are cached for the next run"``; ``""`` when nothing compiles."""
+    measured = [job for job in todo if job.compile_s]
+    unmeasured = [job.name for job in todo if job.compile_s is None]
+    if not measured and not unmeasured:
+        return ""
+    parts = []
+    if measured:
+        seconds = sum(job.compile_s for job in measured)
+        parts.append(f"{format_minutes(seconds)} of it compiling {', '.join(job.name for job in measured)}")
+    if unmeasured:
+        verb = "compiles" if len(unmeasured) == 1 else "compile"
+        parts.append(f"{', '.join(unmeasured)} also {verb} first, for a time not measured")
+    return "; " + "; ".join(parts) + "; the compiled kernels are cached for the next run"
 
 
 def expected_wall_seconds(jobs: Sequence[Job], workers: int) -> float:
@@ -117,7 +143,7 @@ def expected_wall_seconds(jobs: Sequence[Job], workers: int) -> float:
         ready = max((finish[d] for d in job.after if d in names), default=0.0)
         slot = min(range(len(free)), key=free.__getitem__)
         start = max(free[slot], ready)
-        finish[job.name] = free[slot] = start + job.estimate_s
+        finish[job.name] = free[slot] = start + job.expected_s
     return max(finish.values(), default=0.0)
 
 
@@ -170,7 +196,7 @@ def run_plan(
     check_plan(jobs)
     if workers < 1 or threads < 1:
         raise ValueError(f"workers and threads must be >= 1, got workers={workers}, threads={threads}")
-    results = {job.name: JobResult(job.name, "cached", estimate_s=job.estimate_s) for job in jobs}
+    results = {job.name: JobResult(job.name, "cached", estimate_s=job.expected_s) for job in jobs}
     pending = missing_jobs(jobs)
     for job in pending:
         results[job.name].status = "pending"
@@ -244,7 +270,7 @@ class _Scheduler:
             elif len(self.running) < self.workers and all(d in self.done for d in job.after):
                 pending.remove(job)
                 self.submit(job)
-                self.say(f"{job.name}: started (expected {format_minutes(job.estimate_s)})")
+                self.say(f"{job.name}: started (expected {format_minutes(job.expected_s)})")
 
     def collect(self, future: Future) -> None:
         state = self.running.pop(future)
@@ -302,7 +328,7 @@ def _progress_text(state: _Running, now: float) -> str:
             f"{state.job.name}: step {state.step:,}/{state.total:,}, {format_minutes(elapsed)} elapsed, "
             f"~{format_minutes(left)} left"
         )
-    left = max(state.job.estimate_s - elapsed, 0.0)
+    left = max(state.job.expected_s - elapsed, 0.0)
     return f"{state.job.name}: preparing, {format_minutes(elapsed)} elapsed, ~{format_minutes(left)} left (estimate)"
 
 

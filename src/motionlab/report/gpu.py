@@ -27,6 +27,8 @@ MODEL_NAMES = {
     "discord": "DisCoRD decoder",
     "t2m": "M2D2M text encoder + denoiser",
 }
+# The benchmark's model that times each part motionlab.train.compiling compiles.
+BENCH_MODEL_OF_PART = {"tokenizer": "rvq", "discord": "discord", "denoiser": "t2m"}
 VARIANTS = ("library train_step", "module", "module, compiled", "module, compiled, CUDA graphs", "official module")
 
 
@@ -57,6 +59,15 @@ class GPURun:
             if (r["decoder"], r["precision"], r["batch"], r["points"]) == (decoder, precision, batch, points):
                 return r["seconds_median"]
         return None
+
+    def compile_seconds(self, model: str, precision: str = "bf16") -> float | None:
+        """Seconds the first call of ``model``'s compiled step took (``torch.compile`` without CUDA graphs, measured
+        in ``precision``, else in any precision), or None where this run did not compile it."""
+        timed = [
+            r for r in self.train if r["model"] == model and r["variant"] == "module, compiled" and "compile_s" in r
+        ]
+        timed.sort(key=lambda r: r["precision"] != precision)
+        return float(timed[0]["compile_s"]) if timed else None
 
     def step_ms(self, model: str, variant: str, precision: str = "bf16") -> float | None:
         for r in self.train:
@@ -190,6 +201,7 @@ def newest_gpu_run(profile: str | None = None) -> GPURun | None:
 
 
 __all__ = [
+    "BENCH_MODEL_OF_PART",
     "GPURun",
     "TABLE_E_KEYS",
     "newest_gpu_run",
