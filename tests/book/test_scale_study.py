@@ -93,6 +93,26 @@ def test_the_batch_grows_on_a_gpu_up_to_the_benchmarked_batch():
     assert planned["tokenizer/vq"].seconds is None and "no bf16 rate for it" in planned["tokenizer/vq"].why
 
 
+def test_a_gpu_plan_counts_the_compile_time_where_the_run_compiles(monkeypatch):
+    (run,) = load_gpu_runs(REPO / "book" / "data" / "gpu")[-1:]
+    compile_s, step_ms = run.compile_seconds("discord"), run.step_ms("discord", "library train_step")
+    monkeypatch.delenv("MOTIONLAB_COMPILE", raising=False)  # auto: DisCoRD's U-Net compiles on CUDA, nothing else
+    planned = {m.name: m for m in plan_point(Point("discord", 10, 8), "laptop", Rates("bf16", run))}
+    decoder = planned["discord/rvq"]
+    assert decoder.seconds == pytest.approx(decoder.steps * step_ms / 1e3 + compile_s)
+    assert decoder.why.endswith(f"; {compile_s:.0f} s of it compiling")
+    assert "compiling" not in planned["tokenizer/rvq"].why
+    measured = Rates("bf16", run, {("discord/rvq", decoder.batch): (10.0, "discord-x3")})
+    (_, again) = plan_point(Point("discord", 10, 8), "laptop", measured)  # a point recorded here timed its compile
+    assert again.seconds == pytest.approx(again.steps * 0.01) and "compiling" not in again.why
+    monkeypatch.setenv("MOTIONLAB_COMPILE", "off")
+    (_, off) = plan_point(Point("discord", 10, 8), "laptop", Rates("bf16", run))
+    assert off.seconds == pytest.approx(off.steps * step_ms / 1e3)
+    monkeypatch.setenv("MOTIONLAB_COMPILE", "on")
+    rvq = plan_point(Point("discord", 10, 8), "laptop", Rates("bf16", run))[0]
+    assert rvq.name == "tokenizer/rvq" and "did not measure" in rvq.why  # compiled, never timed compiling
+
+
 def test_a_point_measured_here_predicts_the_next_better_than_the_benchmark():
     (run,) = load_gpu_runs(REPO / "book" / "data" / "gpu")[-1:]
     measured = {

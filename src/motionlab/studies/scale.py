@@ -121,6 +121,30 @@ class Rates:
             return None, f"no {self.precision} rate for it in {self.run.path.name}"
         return ms, f"{ms:g} ms ({kind}, {self.precision}, {self.run.path.name}: an upper bound)"
 
+    def compile_seconds(self, name: str, batch: int) -> tuple[float, str]:
+        """Seconds ``name`` compiles for before it trains on the GPU, and a phrase saying so (``""``: nothing to add).
+
+        Only where the step time is the benchmark's: a point recorded here timed its compiling inside its seconds.
+        Each model compiles when its training starts, so each pays it; the benchmark's compile of the full-size
+        network stands in for it (the inductor cache under ``$MOTIONLAB_HOME`` can make a later one shorter).
+        """
+        from motionlab.report.gpu import BENCH_MODEL_OF_PART
+        from motionlab.train.compiling import should_compile
+
+        part = compiled_part(name)
+        if self.run is None or (name, batch) in self.steps or part is None or not should_compile(part, "cuda"):
+            return 0.0, ""
+        seconds = self.run.compile_seconds(BENCH_MODEL_OF_PART[part], self.precision)
+        if seconds is None:
+            return 0.0, f"; it compiles first, for a time {self.run.path.name} did not measure"
+        return seconds, f"; {seconds:.0f} s of it compiling"
+
+
+def compiled_part(model: str) -> str | None:
+    """The network of ``model`` that :mod:`motionlab.train.compiling` may compile (None: none)."""
+    prefixes = {"tokenizer/": "tokenizer", "discord/": "discord", "t2m/": "denoiser"}
+    return next((part for prefix, part in prefixes.items() if model.startswith(prefix)), None)
+
 
 def measured_rates(records: list[dict], device_type: str, precision: str, run=None) -> Rates:
     """:class:`Rates` with the step times and scoring times that ``records`` (points written by
@@ -156,13 +180,17 @@ def plan_point(
     """Each model of ``point`` with its steps, batch and predicted training seconds: the steps not yet trained (by
     ``progress``, :func:`motionlab.studies.carry.cached_progress`) × the step time measured in an earlier point here,
     else the library's step the GPU benchmark timed for its kind at the papers' widths and a batch at least this
-    one's (an upper bound for the laptop's narrower networks). None where neither measured it."""
+    one's (an upper bound for the laptop's narrower networks), plus its compile time where the run compiles it
+    (:meth:`Rates.compile_seconds`). None where neither measured it."""
     planned = []
     for name, config in _configs(point, profile).items():
         steps, batch = training_steps(config)
         done = int(min(steps, (progress or {}).get(config_key(config), 0)))
         ms, source = rates.step_ms(name, batch)
         seconds = None if ms is None else (steps - done) * ms / 1e3
+        if seconds is not None and done < steps:
+            compiling, said = rates.compile_seconds(name, batch)
+            seconds, source = seconds + compiling, source + said
         planned.append(PlannedModel(name, steps, batch, seconds, source, done))
     return planned
 
@@ -354,6 +382,7 @@ __all__ = [
     "point_seconds",
     "auto_batch_factor",
     "benchmark_kind",
+    "compiled_part",
     "plan_lines",
     "plan_point",
     "predicted_seconds",
