@@ -10,7 +10,9 @@ one GPU run of about five minutes (the machine's start included):
   built by the library, clipping, EMA, logging), the module's raw step (forward, backward and a fused AdamW step on
   one device-resident batch) and, on CUDA, the raw step with the network compiled (its compile time recorded) and,
   for the launch-bound denoiser, compiled with CUDA graphs (``mode="reduce-overhead"``), in interleaved rounds;
-  FLOPs per step (``torch.utils.flop_counter``) and the share of the measured bf16 peak;
+  FLOPs per step (``torch.utils.flop_counter``) and the share of the measured bf16 peak. The library's step compiles
+  what its trainer compiles under the run's setting (``$MOTIONLAB_COMPILE``, recorded with each step):
+  ``MOTIONLAB_COMPILE=graphs`` times the library's text-to-motion step with its denoiser replayed as CUDA graphs;
 - ``decode``: DisCoRD's Table E grid: 196 frames (49 tokens × 6 layers), batch 1 and 32, 2 and 16 midpoint grid
   points, bf16 and fp32, the tokenizer's feed-forward decoder beside it.
 
@@ -50,11 +52,15 @@ from torch.utils.flop_counter import FlopCounterMode
 from motionlab.data import load_dataset
 from motionlab.flow import DisCoRDDecoder, discord_config
 from motionlab.precision import autocast
+from motionlab.report.gpu import BENCH_MODEL_OF_PART
+from motionlab.settings import env_compile
 from motionlab.tokenizers import build_tokenizer, rvq_config
 from motionlab.tokenizers.training import tokenizer_loss_fn
+from motionlab.train.compiling import compile_mode
 
 REPO = Path(__file__).resolve().parents[1]
 MODELS = ("rvq", "discord", "t2m")
+PART_OF_MODEL = {model: part for part, model in BENCH_MODEL_OF_PART.items()}  # the network compiling targets
 PRECISIONS = ("bf16", "fp32")
 TOKENS = 49  # 196 frames: Table E's clip
 DECODE_BATCHES = (1, 32)
@@ -332,6 +338,8 @@ def train_section(args, device: torch.device, dataset, peak: float, save: Callab
                 }
                 if variant in compile_seconds:
                     record["compile_s"] = compile_seconds[variant]
+                if variant == "library train_step":  # how the trainer compiled it under the run's setting
+                    record["compile_mode"] = compile_mode(PART_OF_MODEL[name], device) or "off"
                 records.append(record)
             save(records)
             del trainer, raw, variants
@@ -427,6 +435,7 @@ def machine_record(args, device: torch.device, peaks: dict[str, float]) -> dict:
         "profile": args.profile,
         "date": time.strftime("%Y-%m-%d"),
         "matmul_tflops": peaks,
+        "compile_setting": env_compile(),  # what the library's trainers compile (motionlab.train.compiling)
     }
 
 

@@ -890,11 +890,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--compile",
-        choices=["auto", "on", "off"],
+        choices=["auto", "on", "graphs", "off"],
         default=None,
         help="torch.compile the networks while training: auto compiles on CUDA where it was measured to pay "
-        "(the DisCoRD U-Net), never on a CPU; on compiles every trained network; off compiles nothing "
-        "(default: $MOTIONLAB_COMPILE, else auto)",
+        "(the DisCoRD U-Net), never on a CPU; on compiles every trained network; graphs as on, and on CUDA "
+        "replays the launch-bound denoiser as CUDA graphs; off compiles nothing (default: $MOTIONLAB_COMPILE, "
+        "else auto)",
     )
     sub = parser.add_subparsers(dest="command", required=True)
 

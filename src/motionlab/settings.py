@@ -36,7 +36,9 @@ class RunSettings:
     threads: int | None = None  # torch CPU threads; None: leave torch's choice
     # Bit-identical results on CUDA too (resume, batch order): deterministic kernels only. The CPU's are already.
     deterministic: bool = False
-    compile: str = "auto"  # torch.compile: "auto" (where measured to pay, CUDA only) | "on" | "off"
+    # torch.compile: "auto" (where measured to pay, CUDA only) | "on" | "graphs" (on, CUDA graphs where launch-bound)
+    # | "off" (motionlab.train.compiling)
+    compile: str = "auto"
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "profile", get_profile(self.profile))
@@ -71,7 +73,7 @@ class RunSettings:
         return f"profile {self.profile}, precision {resolved} ({why}){extra}"
 
 
-COMPILE_CHOICES = ("auto", "on", "off")
+COMPILE_CHOICES = ("auto", "on", "graphs", "off")
 MAX_THREADS = 4096  # threads per process; more is a typo, not a machine
 
 

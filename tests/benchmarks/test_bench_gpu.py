@@ -84,6 +84,9 @@ def test_the_denoiser_is_also_timed_compiled_with_cuda_graphs(bench_gpu, tmp_pat
     assert modes == [("DenoisingTransformer", "default"), ("DenoisingTransformer", "reduce-overhead")]
     assert len(marks) == 1 + 2 * 2  # every step of the graphed variant begins an iteration: first call, warm-up, round
     assert train["module, compiled, CUDA graphs"]["compile_s"] > 0
+    assert train["library train_step"]["compile_mode"] == "off"  # the run's auto compiles nothing on a CPU
+    (machine,) = [r for r in json.loads(out.read_text()) if r["section"] == "machine"]
+    assert machine["compile_setting"] == "auto"
 
 
 def test_cuda_graphs_are_timed_on_cuda_only_unless_asked(bench_gpu, monkeypatch):

@@ -212,6 +212,71 @@ def test_token_batches_crop_pad_and_index_captions():
     assert all(torch.equal(batch[k], again[k]) for k in batch)
 
 
+def test_fixed_shape_batches_pad_the_same_draws_and_leave_the_networks_outputs_alone():
+    """What CUDA graphs need (one shape for every batch): the same rows padded further, and the padding masked so
+    well that the text encoder's and the denoiser's outputs at the real positions do not change."""
+    config = diffusion_training_config("smoke", num_codes=32)
+    rng = np.random.default_rng(1)
+    seqs = [torch.from_numpy(rng.integers(0, 32, size=n)) for n in (3, 20, 7, 49, 60, 1, 12)]
+    caps = [[f"clip {i} caption {k} " + "word " * int(rng.integers(0, 9)) for k in range(i % 3 + 1)] for i in range(7)]
+    nets = TextToMotionNetworks(config, Vocabulary.build([t for c in caps for t in c])).eval()
+    tokenize = nets.text_encoder.tokenize
+    varying = TokenBatches(seqs, caps, batch_size=4, max_tokens=64, tokenize=tokenize)
+    fixed = TokenBatches(seqs, caps, batch_size=4, max_tokens=64, tokenize=tokenize, fixed_shapes=True)
+    widest_caption = tokenize(varying.texts)[0].shape[1]
+    widths = set()
+    for seed in range(6):
+        a, b = varying(seed, torch.Generator().manual_seed(seed)), fixed(seed, torch.Generator().manual_seed(seed))
+        L, S = a["ids"].shape[1], a["text_ids"].shape[1]
+        widths.add((L, S))
+        assert b["ids"].shape == (4, 60) and b["text_ids"].shape == (4, widest_caption)  # the longest clip: 60
+        assert torch.equal(a["caption"], b["caption"])
+        for key, width in (("ids", L), ("padding_mask", L), ("text_ids", S), ("text_padding_mask", S)):
+            assert torch.equal(b[key][:, :width], a[key])
+        assert b["padding_mask"][:, L:].all() and b["text_padding_mask"][:, S:].all()
+        with torch.no_grad():
+            outputs = []
+            for batch in (a, b):
+                text = nets.text_encoder.encode_tokens(batch["text_ids"], batch["text_padding_mask"])
+                x_t = batch["ids"].masked_fill(batch["padding_mask"], 32)
+                t = torch.full((4,), 5)
+                log_p = nets.denoiser(x_t, t, text.tokens, text.padding_mask, padding_mask=batch["padding_mask"])
+                outputs.append((text, log_p))
+        (text_a, log_p_a), (text_b, log_p_b) = outputs
+        words, real = ~a["text_padding_mask"], ~a["padding_mask"]
+        torch.testing.assert_close(text_b.tokens[:, :S][words], text_a.tokens[words])
+        torch.testing.assert_close(text_b.sentence, text_a.sentence)
+        torch.testing.assert_close(log_p_b[:, :L][real], log_p_a[real])  # (B, L, K) at the real tokens
+    # padding was added along both axes
+    assert any(L < 60 for L, _ in widths) and any(S < widest_caption for _, S in widths)
+
+
+def test_a_graphed_denoiser_trains_on_fixed_shapes_and_marks_every_step(monkeypatch):
+    """Where the denoiser trains as CUDA graphs (forced here: this machine may have no GPU), its trainer pads every
+    batch to one shape and tells the graphs at each step that a new iteration began."""
+    import motionlab.diffusion.training as training
+
+    config = diffusion_training_config("smoke", num_codes=32)
+    rng = np.random.default_rng(2)
+    seqs = [torch.from_numpy(rng.integers(0, 32, size=n)) for n in (5, 9, 14, 3)]
+    caps = [[f"clip {i} " + "word " * i] for i in range(4)]
+    nets = TextToMotionNetworks(config, Vocabulary.build([c[0] for c in caps]))
+    transitions = make_transitions(config.transformer, torch.randn(32, config.transformer.d_model))
+    marks = []
+    monkeypatch.setattr(training, "compile_for_training", lambda *args: True)
+    monkeypatch.setattr(torch.compiler, "cudagraph_mark_step_begin", lambda: marks.append(1))
+    plain = training.text_to_motion_trainer(nets, seqs, caps, transitions, config, device="cpu", progress=False)
+    assert not plain.marks_graph_steps and not plain.batch_fn.fixed_shapes  # on a CPU: never graphed
+    monkeypatch.setattr(training, "uses_cuda_graphs", lambda part, device: part == "denoiser")
+    trainer = training.text_to_motion_trainer(nets, seqs, caps, transitions, config, device="cpu", progress=False)
+    assert trainer.marks_graph_steps and trainer.batch_fn.fixed_shapes
+    shapes = {tuple(trainer.batch_fn(step, torch.Generator().manual_seed(step))["ids"].shape) for step in range(4)}
+    assert shapes == {(config.transformer.batch_size, min(config.max_tokens, 14))}
+    for _ in range(3):
+        trainer.train_step()
+    assert len(marks) == 3
+
+
 def test_token_batches_validate_their_inputs():
     with pytest.raises(ValueError, match="as many caption lists"):
         TokenBatches([torch.arange(3)], [["a"], ["b"]], 4, 8)

@@ -6,7 +6,15 @@ import pytest
 import torch
 
 from motionlab.settings import RunSettings, apply_settings, resolve_settings
-from motionlab.train.compiling import compile_for_training, should_compile
+from motionlab.train.compiling import (
+    GRAPHED,
+    GRAPHED_ON_CUDA,
+    LAUNCH_BOUND,
+    compile_for_training,
+    compile_mode,
+    should_compile,
+    uses_cuda_graphs,
+)
 
 
 def test_the_settings_come_from_options_then_the_environment(monkeypatch):
@@ -45,6 +53,20 @@ def test_compiling_is_cuda_only_under_auto_and_never_when_off(monkeypatch):
     layer = torch.nn.Linear(2, 2)
     assert not compile_for_training([layer], "discord", torch.device("cpu"))
     assert layer._compiled_call_impl is None  # left as it was
+
+
+def test_cuda_graphs_only_for_the_launch_bound_networks_and_only_on_cuda():
+    assert LAUNCH_BOUND == {"denoiser"} and GRAPHED_ON_CUDA <= LAUNCH_BOUND
+    assert compile_mode("denoiser", "cuda", "graphs") == GRAPHED and uses_cuda_graphs("denoiser", "cuda:0", "graphs")
+    assert compile_mode("discord", "cuda", "graphs") == "default"  # compiled, not graphed: it is not launch-bound
+    assert compile_mode("denoiser", "cpu", "graphs") == "default"  # CUDA graphs need CUDA
+    assert compile_mode("denoiser", "cuda", "on") == "default" and compile_mode("denoiser", "cuda", "off") is None
+    graphed_by_default = "denoiser" in GRAPHED_ON_CUDA  # flipped once bench_gpu.py shows graphs pay
+    assert uses_cuda_graphs("denoiser", "cuda", "auto") == graphed_by_default
+    assert not uses_cuda_graphs("denoiser", "cpu", "auto") and compile_mode("tokenizer", "cuda", "auto") is None
+    with pytest.raises(ValueError, match="compile setting"):
+        compile_mode("denoiser", "cuda", "always")
+    assert resolve_settings("smoke", compile="graphs").compile == "graphs"
 
 
 @pytest.mark.filterwarnings("ignore::DeprecationWarning")  # importing torch's compiler stack warns about torch.jit

@@ -94,7 +94,7 @@ def compile_estimates(device, precision: str) -> dict[str, float | None]:
     import torch
 
     from ..report.gpu import BENCH_MODEL_OF_PART, newest_gpu_run
-    from ..train.compiling import should_compile
+    from ..train.compiling import should_compile, uses_cuda_graphs
 
     run = newest_gpu_run() if torch.device(device).type == "cuda" else None
     out: dict[str, float | None] = {}
@@ -103,7 +103,8 @@ def compile_estimates(device, precision: str) -> dict[str, float | None]:
         if part is None or not should_compile(part, device):
             out[kind] = 0.0
         else:
-            out[kind] = run.compile_seconds(BENCH_MODEL_OF_PART[part], precision) if run is not None else None
+            graphs = uses_cuda_graphs(part, device)
+            out[kind] = run.compile_seconds(BENCH_MODEL_OF_PART[part], precision, graphs) if run is not None else None
     return out
 
 

@@ -34,7 +34,7 @@ from motionlab.profiles import get_profile
 from motionlab.sizes import DIFFUSION_TRAINING, WORD_ENCODER, resized
 from motionlab.text import Vocabulary, WordTextEncoder
 from motionlab.train import TrainConfig, Trainer
-from motionlab.train.compiling import compile_for_training, release_compiled
+from motionlab.train.compiling import compile_for_training, release_compiled, uses_cuda_graphs
 
 PAPER_ETA = 0.5  # M2D2M appendix A.1: η for single-motion generation (0.25 for multi-motion)
 
@@ -232,6 +232,11 @@ class TokenBatches:
 
     The draws come from the (CPU) data generator; which rows to take is worked out on the host from them, and the
     tokens are gathered in one indexing operation where the tables live (``to(device)`` moves them, once).
+
+    With ``fixed_shapes`` every batch is padded to the same shape, ``L = min(max_tokens, longest sequence)`` and
+    ``S`` = the longest caption of all: the same draws and the same rows, more padding. What a network replayed as
+    CUDA graphs needs (:mod:`motionlab.train.compiling`); off by default, because the loss's noise is drawn per
+    position, so padding changes which numbers a clip's tokens get.
     """
 
     def __init__(
@@ -241,6 +246,7 @@ class TokenBatches:
         batch_size: int,
         max_tokens: int,
         tokenize: Callable[[Sequence[str]], tuple[Tensor, Tensor]] | None = None,
+        fixed_shapes: bool = False,
     ) -> None:
         if len(sequences) == 0 or len(sequences) != len(captions):
             raise ValueError(f"need as many caption lists as sequences (> 0), got {len(sequences)} and {len(captions)}")
@@ -254,7 +260,7 @@ class TokenBatches:
         self.texts = [t for caps in captions for t in caps]
         counts = torch.tensor([len(c) for c in captions])
         self.first_caption, self.n_captions = torch.cumsum(counts, 0) - counts, counts
-        self.batch_size, self.max_tokens = batch_size, max_tokens
+        self.batch_size, self.max_tokens, self.fixed_shapes = batch_size, max_tokens, fixed_shapes
         # host-side tables for working out a batch's rows, device-side tables to gather them from
         self._lengths = np.array([s.numel() for s in self.sequences], dtype=np.int64)
         self._row_width = int(self._lengths.max())
@@ -283,7 +289,7 @@ class TokenBatches:
         n = self._lengths[c]
         keep = np.minimum(n, self.max_tokens)
         start = (u[:, 0] * (n - keep + 1).astype(np.float32)).astype(np.int64)
-        L = int(keep.max())
+        L = min(self.max_tokens, self._row_width) if self.fixed_shapes else int(keep.max())
         offsets = np.arange(L)
         padding = offsets[None, :] >= keep[:, None]  # (B, L)
         flat = np.where(padding, 0, c[:, None] * self._row_width + start[:, None] + offsets[None, :])
@@ -293,7 +299,7 @@ class TokenBatches:
         ids = self._tokens.view(-1)[_to(flat, device)].masked_fill(padding_mask, 0)  # (B, L): one gather
         batch = {"ids": ids, "padding_mask": padding_mask, "caption": torch.from_numpy(caption)}
         if self._text_ids is not None:
-            S = int(self._text_lengths[caption].max())
+            S = self._text_ids.shape[1] if self.fixed_shapes else int(self._text_lengths[caption].max())
             text_ids = self._text_ids[_to(caption, device), :S]  # (B, S)
             batch.update(text_ids=text_ids, text_padding_mask=text_ids == 0)
         return batch
@@ -397,6 +403,8 @@ def text_to_motion_trainer(
     )
     transitions.to(trainer.device)
     compile_for_training([networks.denoiser], "denoiser", trainer.device)  # the run's --compile setting
+    if uses_cuda_graphs("denoiser", trainer.device):  # graphs replay one shape: every batch gets the same
+        batches.fixed_shapes = trainer.marks_graph_steps = True
     return trainer
 
 

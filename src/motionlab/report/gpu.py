@@ -60,12 +60,11 @@ class GPURun:
                 return r["seconds_median"]
         return None
 
-    def compile_seconds(self, model: str, precision: str = "bf16") -> float | None:
-        """Seconds the first call of ``model``'s compiled step took (``torch.compile`` without CUDA graphs, measured
-        in ``precision``, else in any precision), or None where this run did not compile it."""
-        timed = [
-            r for r in self.train if r["model"] == model and r["variant"] == "module, compiled" and "compile_s" in r
-        ]
+    def compile_seconds(self, model: str, precision: str = "bf16", graphs: bool = False) -> float | None:
+        """Seconds the first call of ``model``'s compiled step took (with CUDA graphs where ``graphs``; measured in
+        ``precision``, else in any precision), or None where this run did not compile it so."""
+        variant = "module, compiled, CUDA graphs" if graphs else "module, compiled"
+        timed = [r for r in self.train if r["model"] == model and r["variant"] == variant and "compile_s" in r]
         timed.sort(key=lambda r: r["precision"] != precision)
         return float(timed[0]["compile_s"]) if timed else None
 

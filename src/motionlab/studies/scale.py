@@ -129,12 +129,12 @@ class Rates:
         network stands in for it (the inductor cache under ``$MOTIONLAB_HOME`` can make a later one shorter).
         """
         from motionlab.report.gpu import BENCH_MODEL_OF_PART
-        from motionlab.train.compiling import should_compile
+        from motionlab.train.compiling import should_compile, uses_cuda_graphs
 
         part = compiled_part(name)
         if self.run is None or (name, batch) in self.steps or part is None or not should_compile(part, "cuda"):
             return 0.0, ""
-        seconds = self.run.compile_seconds(BENCH_MODEL_OF_PART[part], self.precision)
+        seconds = self.run.compile_seconds(BENCH_MODEL_OF_PART[part], self.precision, uses_cuda_graphs(part, "cuda"))
         if seconds is None:
             return 0.0, f"; it compiles first, for a time {self.run.path.name} did not measure"
         return seconds, f"; {seconds:.0f} s of it compiling"

@@ -172,6 +172,9 @@ class Trainer:
         # Each rank draws its own noise; rank 0's stream is the single-process stream.
         self.noise_generator = torch.Generator(device=self.device).manual_seed(config.seed + 1 + 1000 * self.dist.rank)
         self.step = 0
+        # Set by whoever compiles the model with CUDA graphs (motionlab.train.compiling): each step then tells the
+        # graphs a new iteration began, so the last step's graph outputs may be overwritten.
+        self.marks_graph_steps = False
         self._saved_step: int | None = None
         # every fit() that trained this model, oldest first (checkpointed), and the one under way: (first step, start)
         self.sittings: list[dict[str, Any]] = []
@@ -192,6 +195,8 @@ class Trainer:
         """One optimiser step. Returns the logged terms as detached 0-d tensors on the training device (reading
         them, e.g. with ``float``, waits for the device: :meth:`fit` sums them there and reads at log steps)."""
         cfg = self.config
+        if self.marks_graph_steps:
+            torch.compiler.cudagraph_mark_step_begin()
         set_lr(self.optimizer, cfg.lr_at(self.step))
         self.model.train()
         with trusted_values():
