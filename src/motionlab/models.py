@@ -47,6 +47,16 @@ _T2M = re.compile(r"^t2m/(dynamic|uniform)(?:-seed(\d+))?(?:-steps(\d+))?$")
 _ETA = re.compile(r"^t2m/eta(\d+(?:\.\d+)?)$")  # the dynamic model at any η (training seed 0): η sweeps
 _MULTI = re.compile(r"^t2m/multi-eta0\.25(?:-seed(\d+))?$")
 _SEEDED = re.compile(r"^(vq|rvq)(?:-seed(\d+))?$")  # a tokenizer kind, or a replicate of its training chain
+# The network of each kind of book model that motionlab.train.compiling may compile (a name's part before "/").
+_COMPILED_PART = {"tokenizer": "tokenizer", "discord": "discord", "t2m": "denoiser"}
+
+
+def compiled_part(name: str) -> str | None:
+    """The part (:data:`motionlab.train.compiling.PARTS`) that compiling targets when the book's model ``name``
+    trains, e.g. ``"denoiser"`` for ``t2m/dynamic``; None for the models that never compile (data, evaluator, toy
+    flows)."""
+    kind, slash, _ = name.partition("/")
+    return _COMPILED_PART.get(kind) if slash else None
 
 
 def _tokenizer(kind: str, dataset, profile: str, device, seed: int = 0):
@@ -204,4 +214,4 @@ def projection_config(profile: str, tokenizer, projection: str = "stacked", seed
     return discord_config(profile, tokenizer=tokenizer, projection=projection, seed=seed, **{**budget, **overrides})
 
 
-__all__ = ["book_dataset", "forget_book_datasets", "load", "projection_config"]
+__all__ = ["book_dataset", "compiled_part", "forget_book_datasets", "load", "projection_config"]

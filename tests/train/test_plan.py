@@ -139,23 +139,29 @@ def test_the_plan_line_counts_compile_time():
 
 
 def test_book_jobs_take_compile_times_from_the_gpu_benchmark(monkeypatch):
-    from motionlab.build.book_models import COMPILED_PART, compile_estimates
+    from motionlab.build.book_models import compile_estimate
+    from motionlab.models import compiled_part
     from motionlab.report.gpu import newest_gpu_run
     from motionlab.train.compiling import COMPILED_ON_CUDA
 
-    monkeypatch.delenv("MOTIONLAB_COMPILE", raising=False)
-    assert set(compile_estimates("cpu", "fp32").values()) == {0.0}  # auto: nothing compiles on a CPU
-    on_cuda = compile_estimates("cuda", "bf16")
+    names = ("data", "tokenizer/vq", "tokenizer/rvq", "discord/rvq", "discord/vq", "t2m/dynamic", "evaluator")
     run = newest_gpu_run()
-    for kind, seconds in on_cuda.items():
-        if COMPILED_PART.get(kind) in COMPILED_ON_CUDA:
-            assert seconds is not None and seconds > 0 and seconds == run.compile_seconds(COMPILED_PART[kind])
+
+    def estimates(device: str, precision: str = "bf16") -> dict:
+        return {name: compile_estimate(name, device, precision, run) for name in names}
+
+    monkeypatch.delenv("MOTIONLAB_COMPILE", raising=False)
+    assert set(estimates("cpu", "fp32").values()) == {0.0}  # auto: nothing compiles on a CPU
+    for name, seconds in estimates("cuda").items():
+        if compiled_part(name) in COMPILED_ON_CUDA:
+            assert seconds is not None and seconds > 0 and seconds == run.compile_seconds(compiled_part(name))
         else:
             assert seconds == 0.0
     monkeypatch.setenv("MOTIONLAB_COMPILE", "on")
-    on_cpu = compile_estimates("cpu", "fp32")
-    assert on_cpu["tokenizer"] is None and on_cpu["evaluator"] == 0.0  # compiled, never timed on a CPU
+    on_cpu = estimates("cpu", "fp32")
+    assert on_cpu["tokenizer/vq"] is None and on_cpu["evaluator"] == 0.0  # compiled, never timed on a CPU
     monkeypatch.setenv("MOTIONLAB_COMPILE", "graphs")  # the denoiser's compile with CUDA graphs is its own record
-    assert compile_estimates("cuda", "bf16")["t2m"] == run.compile_seconds("t2m", "bf16", graphs=True)
+    assert estimates("cuda")["t2m/dynamic"] == run.compile_seconds("t2m", "bf16", graphs=True)
     monkeypatch.setenv("MOTIONLAB_COMPILE", "off")
-    assert set(compile_estimates("cuda", "bf16").values()) == {0.0}
+    assert set(estimates("cuda").values()) == {0.0}
+    assert [compiled_part(n) for n in ("data", "toy_flow/ring", "t2m/multi-eta0.25")] == [None, None, "denoiser"]

@@ -83,29 +83,18 @@ BF16_SPEEDUP: dict[str, float] = {
 }
 
 
-# The network each kind of model compiles when it trains (motionlab.train.compiling's parts); the others never do.
-COMPILED_PART = {"tokenizer": "tokenizer", "discord": "discord", "discord_short": "discord", "t2m": "denoiser"}
+def compile_estimate(name: str, device, precision: str, run) -> float | None:
+    """Seconds the book's model ``name`` spends compiling before it trains on ``device`` under the run's compile
+    setting: 0 where nothing compiles, the compile time ``run`` (a GPU benchmark's run, or None) measured, None where
+    it compiles and nothing measured how long (on a CPU the compile time was never recorded)."""
+    from ..report.gpu import BENCH_MODEL_OF_PART
+    from ..train.compiling import GRAPHED, compile_mode
 
-
-def compile_estimates(device, precision: str) -> dict[str, float | None]:
-    """Seconds each kind of model spends compiling before it trains on ``device`` under the run's compile setting:
-    0 where nothing compiles, the newest GPU benchmark's measured compile time on CUDA, None where it compiles and
-    nothing measured how long (on a CPU the compile time was never recorded)."""
-    import torch
-
-    from ..report.gpu import BENCH_MODEL_OF_PART, newest_gpu_run
-    from ..train.compiling import should_compile, uses_cuda_graphs
-
-    run = newest_gpu_run() if torch.device(device).type == "cuda" else None
-    out: dict[str, float | None] = {}
-    for kind in ESTIMATES_S["laptop"]:
-        part = COMPILED_PART.get(kind)
-        if part is None or not should_compile(part, device):
-            out[kind] = 0.0
-        else:
-            graphs = uses_cuda_graphs(part, device)
-            out[kind] = run.compile_seconds(BENCH_MODEL_OF_PART[part], precision, graphs) if run is not None else None
-    return out
+    part = models.compiled_part(name)
+    mode = compile_mode(part, device) if part is not None else None
+    if mode is None:
+        return 0.0
+    return None if run is None else run.compile_seconds(BENCH_MODEL_OF_PART[part], precision, mode == GRAPHED)
 
 
 def job_precision(name: str, run_precision: str) -> str:
@@ -160,12 +149,14 @@ def book_jobs(
     config of the two ``stacked`` DisCoRD decoders (what ``train discord --predict ...`` does).
     """
     from ..precision import network_precision
+    from ..report.gpu import newest_gpu_run
     from ..train.device import get_device
 
     profile = get_profile(profile)
     device = get_device(None)
-    cost = training_estimates(profile, network_precision(device))
-    compiling = compile_estimates(device, network_precision(device))
+    precision = network_precision(device)
+    cost = training_estimates(profile, precision)
+    gpu_run = newest_gpu_run() if device.type == "cuda" else None  # what compiling took there
     on = {"data": data}
 
     def job(name: str, kind: str, after: tuple[str, ...] = (), **kwargs) -> Job:
@@ -173,7 +164,8 @@ def book_jobs(
             run = partial(make_data, profile, seed, **on)
         else:
             run = partial(make_model, profile, seed, name, **on, **kwargs)
-        return Job(name, run, after, cost[kind], partial(is_cached, run), compiling[kind])
+        compiling = compile_estimate(name, device, precision, gpu_run)
+        return Job(name, run, after, cost[kind], partial(is_cached, run), compiling)
 
     vq, rvq, flow = ("tokenizer/vq",), ("tokenizer/rvq",), {"overrides": flow_options}
     replicates = chapter_sizes(profile).transitions.training_seeds[1:]

@@ -128,22 +128,18 @@ class Rates:
         Each model compiles when its training starts, so each pays it; the benchmark's compile of the full-size
         network stands in for it (the inductor cache under ``$MOTIONLAB_HOME`` can make a later one shorter).
         """
+        from motionlab.models import compiled_part
         from motionlab.report.gpu import BENCH_MODEL_OF_PART
-        from motionlab.train.compiling import should_compile, uses_cuda_graphs
+        from motionlab.train.compiling import GRAPHED, compile_mode
 
         part = compiled_part(name)
-        if self.run is None or (name, batch) in self.steps or part is None or not should_compile(part, "cuda"):
+        mode = compile_mode(part, "cuda") if part is not None else None
+        if self.run is None or (name, batch) in self.steps or mode is None:
             return 0.0, ""
-        seconds = self.run.compile_seconds(BENCH_MODEL_OF_PART[part], self.precision, uses_cuda_graphs(part, "cuda"))
+        seconds = self.run.compile_seconds(BENCH_MODEL_OF_PART[part], self.precision, mode == GRAPHED)
         if seconds is None:
             return 0.0, f"; it compiles first, for a time {self.run.path.name} did not measure"
         return seconds, f"; {seconds:.0f} s of it compiling"
-
-
-def compiled_part(model: str) -> str | None:
-    """The network of ``model`` that :mod:`motionlab.train.compiling` may compile (None: none)."""
-    prefixes = {"tokenizer/": "tokenizer", "discord/": "discord", "t2m/": "denoiser"}
-    return next((part for prefix, part in prefixes.items() if model.startswith(prefix)), None)
 
 
 def measured_rates(records: list[dict], device_type: str, precision: str, run=None) -> Rates:
@@ -382,7 +378,6 @@ __all__ = [
     "point_seconds",
     "auto_batch_factor",
     "benchmark_kind",
-    "compiled_part",
     "plan_lines",
     "plan_point",
     "predicted_seconds",

@@ -89,6 +89,7 @@ def release_compiled(model: nn.Module) -> None:
 
 __all__ = [
     "COMPILED_ON_CUDA",
+    "GRAPHED",
     "GRAPHED_ON_CUDA",
     "LAUNCH_BOUND",
     "PARTS",
