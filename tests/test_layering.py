@@ -31,7 +31,7 @@ CONCEPTS = {
     "multimotion",
 }
 # Modules every layer may use; they import nothing above themselves.
-GROUND = {"estimate", "comparison", "paths", "profiles", "precision", "settings", "sizes", "checks"}
+GROUND = {"estimate", "comparison", "paths", "profiles", "precision", "settings", "sizes", "checks", "interrupts"}
 # What judges, records, presents or assembles the concepts.
 UPPER = {
     "report",

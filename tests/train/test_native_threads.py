@@ -1,12 +1,15 @@
 """Child processes get one BLAS/OpenMP thread each unless the user chose otherwise."""
 
 import os
+import signal
 import subprocess
 import sys
+import threading
+from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 
-from motionlab.build.workers import NATIVE_THREAD_VARIABLES, native_threads_for_children
+from motionlab.build.workers import NATIVE_THREAD_VARIABLES, completed_until_ctrl_c, native_threads_for_children
 
 
 def _child_env() -> dict[str, str]:
@@ -105,3 +108,21 @@ def test_elapsed_stamp_is_minutes_and_seconds():
     assert elapsed_stamp(0) == "[  0:00]"
     assert elapsed_stamp(61.9) == "[  1:01]"
     assert elapsed_stamp(3600 + 5) == "[ 60:05]"
+
+
+def test_completed_until_ctrl_c_yields_every_result_and_stops_between_two_on_ctrl_c():
+    handler, gate = signal.getsignal(signal.SIGINT), threading.Event()
+    with ThreadPoolExecutor(2) as pool:
+        powers = [pool.submit(pow, 2, n) for n in range(4)]
+        assert sorted(f.result() for f in completed_until_ctrl_c(powers)) == [1, 2, 4, 8]
+        quick, held = pool.submit(int, 1), pool.submit(gate.wait)
+        seen = []
+        try:
+            with pytest.raises(KeyboardInterrupt, match="waiting for the workers"):
+                for future in completed_until_ctrl_c([quick, held], poll_s=0.05):
+                    seen.append(future)
+                    signal.raise_signal(signal.SIGINT)  # noted while the caller handles a result, raised next
+            assert seen == [quick] and not held.done()
+        finally:
+            gate.set()
+    assert signal.getsignal(signal.SIGINT) is handler

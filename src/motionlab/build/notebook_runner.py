@@ -33,13 +33,13 @@ import shutil
 import sys
 import time
 from collections.abc import Collection, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from ..profiles import env_threads
-from .workers import elapsed_stamp, interrupt_when_orphaned, native_threads_for_children
+from .workers import completed_until_ctrl_c, elapsed_stamp, interrupt_when_orphaned, native_threads_for_children
 
 STALL_S = 180.0  # silent and idle this long while a cell runs: the kernel is stalled
 ATTEMPTS = 3
@@ -370,7 +370,7 @@ def execute_chapters(
             # fingerprinted before they run: a notebook edited meanwhile must not look up to date next time
             marks = {src: _chapter_fingerprint(src, fingerprint) if fingerprint else "" for src in todo}
             futures = {pool.submit(_execute_star, task(src)): src for src in todo}
-            for future in as_completed(futures):
+            for future in completed_until_ctrl_c(futures):
                 run = future.result()
                 run.fingerprint = marks[futures[future]]
                 report(run)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import signal
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -23,6 +24,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any, TextIO
 
+from ..interrupts import DeferredInterrupt
 from ..train.progress import add_progress_hook, disable_bars
 from .workers import elapsed_stamp, interrupt_when_orphaned, native_threads_for_children
 
@@ -242,14 +244,21 @@ class _Scheduler:
 
     def _run(self, pending: list[Job]) -> None:
         try:
-            while pending or self.running:
-                self.start_ready(pending)
-                if self.running:
-                    finished, _ = wait(list(self.running), timeout=1.0, return_when=FIRST_COMPLETED)
-                    _drain(self.queue, self.running)
-                    for future in finished:
-                        self.collect(future)
-                    self.report_progress()
+            # A Ctrl-C raised inside wait() can break the lock of the condition it waits on (see
+            # motionlab.interrupts): the signal is only noted, and the loop stops at its next turn.
+            with DeferredInterrupt(signals=(signal.SIGINT,)) as ctrl_c:
+                while (pending or self.running) and not ctrl_c.requested:
+                    self.start_ready(pending)
+                    if self.running:
+                        finished, _ = wait(list(self.running), timeout=1.0, return_when=FIRST_COMPLETED)
+                        if ctrl_c.requested:  # the workers had it too: what they ended with is not a result
+                            break
+                        _drain(self.queue, self.running)
+                        for future in finished:
+                            self.collect(future)
+                        self.report_progress()
+            if ctrl_c.requested:
+                raise KeyboardInterrupt("the plan was interrupted; finished models stay cached")
         except KeyboardInterrupt:
             for state in self.running.values():
                 self.results[state.job.name].status = "interrupted"
@@ -279,6 +288,9 @@ class _Scheduler:
         result.seconds = time.monotonic() - state.started
         try:
             result.cpu_seconds = future.result()
+        except KeyboardInterrupt:  # the worker alone was interrupted (its own Ctrl-C): so is the plan
+            result.status = "interrupted"
+            raise
         except Exception as error:  # noqa: BLE001 - reported in the table; the jobs after it are skipped
             result.status, result.error = "failed", f"{type(error).__name__}: {error}"
             self.say(f"{state.job.name}: FAILED after {format_minutes(result.seconds)}: {result.error}")

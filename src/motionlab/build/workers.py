@@ -6,8 +6,11 @@ import os
 import signal
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Collection, Iterator
+from concurrent.futures import FIRST_COMPLETED, Future, wait
 from contextlib import contextmanager
+
+from ..interrupts import DeferredInterrupt
 
 # The thread pools of the native libraries under torch and numpy (OpenMP, OpenBLAS, MKL), read once at import.
 NATIVE_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
@@ -59,3 +62,19 @@ def interrupt_when_orphaned(poll_s: float = 2.0, grace_s: float = 60.0) -> threa
     thread = threading.Thread(target=watch, name="exit-with-parent", daemon=True)
     thread.start()
     return thread
+
+
+def completed_until_ctrl_c(futures: Collection[Future], poll_s: float = 1.0) -> Iterator[Future]:
+    """Each of ``futures`` as it completes, like :func:`concurrent.futures.as_completed`, but a Ctrl-C meanwhile is
+    raised as ``KeyboardInterrupt`` here, between two results, and never inside the wait, where it can break the
+    wait's lock (see :mod:`motionlab.interrupts`). A Ctrl-C reaches the interrupted loop within ``poll_s``."""
+    left = set(futures)
+    with DeferredInterrupt(signals=(signal.SIGINT,)) as ctrl_c:
+        while left and not ctrl_c.requested:
+            done, left = wait(left, timeout=poll_s, return_when=FIRST_COMPLETED)
+            for future in done:
+                if ctrl_c.requested:
+                    break
+                yield future
+    if ctrl_c.requested:
+        raise KeyboardInterrupt("interrupted while waiting for the workers")

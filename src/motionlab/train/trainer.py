@@ -44,7 +44,6 @@ import json
 import math
 import os
 import signal
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
@@ -56,6 +55,7 @@ from torch import nn
 from tqdm.auto import tqdm
 
 from ..checks import trusted_values
+from ..interrupts import DeferredInterrupt
 from ..precision import autocast, resolve_precision
 from ..settings import env_deterministic, use_deterministic_kernels
 from .checkpoint import latest_checkpoint, load_checkpoint, prune_checkpoints, save_checkpoint
@@ -381,41 +381,6 @@ class Trainer:
         self.sittings = list(meta.get("sittings", []))
         if not self.sittings and self.step > 0:  # a checkpoint from before sittings were kept: time unknown
             self.sittings = [{"steps": [0, self.step], "seconds": None}]
-
-
-class DeferredInterrupt:
-    """While entered (and ``enabled``), the first SIGINT or SIGTERM only sets :attr:`requested` to its number: the
-    loop finishes its step, checkpoints and stops. The handler that was there before comes back at once, so a second
-    signal of the same kind acts wherever the program is. Off the main thread, where signals cannot be handled, and
-    for a signal the process ignores or whose handler Python did not install, nothing changes."""
-
-    SIGNALS = (signal.SIGINT, signal.SIGTERM)
-
-    def __init__(self, enabled: bool = True):
-        self.requested: int | None = None
-        self._enabled = enabled
-        self._previous: dict[int, Any] = {}
-
-    def __enter__(self) -> DeferredInterrupt:
-        if self._enabled and threading.current_thread() is threading.main_thread():
-            for signum in self.SIGNALS:
-                previous = signal.getsignal(signum)
-                # None: a handler set outside Python, which could not be put back; SIG_IGN: the process ignores the
-                # signal (Ctrl-C in a shell's background job), and a training inside it must not start to listen
-                if previous not in (None, signal.SIG_IGN):
-                    self._previous[signum] = previous
-                    signal.signal(signum, self._request)
-        return self
-
-    def _request(self, signum: int, frame) -> None:
-        if self.requested is None:
-            self.requested = signum
-        signal.signal(signum, self._previous.pop(signum))
-
-    def __exit__(self, *exc) -> None:
-        for signum, previous in self._previous.items():
-            signal.signal(signum, previous)
-        self._previous = {}
 
 
 def final_loss(history: list[dict[str, float]]) -> float:
