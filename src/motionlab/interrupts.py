@@ -3,8 +3,9 @@
 Python raises ``KeyboardInterrupt`` between any two bytecodes of the main thread, including inside the lock
 handling of :mod:`threading` while a ``concurrent.futures.wait`` blocks; there it can leave a condition's lock
 released twice, and the program then stops with ``RuntimeError: release unlocked lock`` instead of the interrupt.
-A training loop has a second reason to defer: the step under way should finish and be checkpointed. Both loops
-enter :class:`DeferredInterrupt` and look at :attr:`~DeferredInterrupt.requested` where stopping is safe.
+A training loop has a second reason to defer: the step under way should finish and be checkpointed. The training
+loop and the loops that wait on worker processes enter :class:`DeferredInterrupt` and look at
+:attr:`~DeferredInterrupt.requested` where stopping is safe.
 """
 
 from __future__ import annotations

@@ -136,7 +136,7 @@ def test_a_ctrl_c_during_the_wait_is_noted_there_and_raised_by_the_plan(monkeypa
 
     def wait_through_a_ctrl_c(futures, timeout=None, return_when=None):
         try:
-            signal.raise_signal(signal.SIGINT)  # this process only: the worker goes on and finishes its nap
+            signal.raise_signal(signal.SIGINT)  # this process only: the worker goes on and writes its file
             return real_wait(futures, timeout=timeout, return_when=return_when)
         except BaseException as error:
             escaped.append(error)
@@ -144,8 +144,8 @@ def test_a_ctrl_c_during_the_wait_is_noted_there_and_raised_by_the_plan(monkeypa
 
     real_wait, handler = plan.wait, signal.getsignal(signal.SIGINT)
     monkeypatch.setattr(plan, "wait", wait_through_a_ctrl_c)
-    done = tmp_path / "nap"
-    jobs = [Job("nap", partial(write, done), is_cached=done.exists)]
+    done = tmp_path / "written"
+    jobs = [Job("write", partial(write, done), is_cached=done.exists)]
     with pytest.raises(KeyboardInterrupt, match="the plan was interrupted"):
         run_plan(jobs, workers=1, out=io.StringIO())
     assert escaped == [] and signal.getsignal(signal.SIGINT) is handler
