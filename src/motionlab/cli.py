@@ -24,8 +24,10 @@ EPILOG = """examples:
   motionlab train book --jobs 2                                         # every model the book's chapters load
   motionlab evaluate reconstruction --decoder discord                   # DisCoRD's Table 1 on the book's data
 
-Every subcommand has its own --help. The book (make book, then _build/html/index.html; or jupyter lab notebooks/)
-explains each model and table; its chapter 98 covers the papers' sizes, real datasets and released checkpoints."""
+In a clone, `make setup` puts motionlab in .venv/bin: `source .venv/bin/activate` first, and the examples run as
+written. Every subcommand has its own --help. The book (make book, then _build/html/index.html; or jupyter lab
+notebooks/) explains each model and table; its chapter 98 covers the papers' sizes, real datasets and released
+checkpoints."""
 
 
 def examples_epilog(*lines: tuple[str, str]) -> str:
@@ -75,15 +77,35 @@ class _Parser(argparse.ArgumentParser):
 
 def _data_check(args: argparse.Namespace) -> int:
     from .data import check_dataset
+    from .data.from_bvh import plural
 
+    if not args.path.is_dir():  # exit 1 as for any other problem of the dataset, said plainly
+        where = "does not exist" if not args.path.exists() else "is a file, not the dataset's folder"
+        print(f"error: {args.path} {where}", file=sys.stderr)
+        return 1
     problems = check_dataset(args.path)
     if problems:
-        print(f"{args.path}: {len(problems)} problem(s)", file=sys.stderr)
+        print(f"{args.path}: {plural(len(problems), 'problem')}", file=sys.stderr)
         for line in problems:
             print(f"  - {line}", file=sys.stderr)
+        if any("texts" in line for line in problems):
+            for line in _texts_format():
+                print(line, file=sys.stderr)
         return 1
     print(f"{args.path}: looks like a complete HumanML3D-layout dataset")
     return 0
+
+
+def _texts_format() -> list[str]:
+    """What a HumanML3D ``texts/<id>.txt`` holds, with an example line the library's own writer formats."""
+    from .data.from_bvh import caption_to_line
+
+    return [
+        "texts/<id>.txt (one per clip id of the splits) holds one caption per line: "
+        "caption#word/POS word/POS ...#start#end, start and end in seconds (0.0#0.0: the whole clip), e.g.",
+        f"  {caption_to_line('a person waves with the left hand')}",
+        "`motionlab data from-bvh` writes them from file names or a captions CSV",
+    ]
 
 
 def _data_make_embedded(args: argparse.Namespace) -> int:
@@ -111,9 +133,16 @@ def _data_make_embedded(args: argparse.Namespace) -> int:
     return 0
 
 
+def _check_mapping(mapping: str) -> None:
+    """A ``--mapping FILE.json`` that is not there is refused before any work, naming the option."""
+    if mapping.lower().endswith(".json") and not Path(mapping).is_file():
+        raise ValueError(f"--mapping {mapping}: the joint map does not exist")
+
+
 def _data_from_bvh(args: argparse.Namespace) -> int:
     from .data.from_bvh import dataset_from_bvh
 
+    _check_mapping(args.mapping)
     try:
         report = dataset_from_bvh(
             args.folder,
@@ -125,8 +154,12 @@ def _data_from_bvh(args: argparse.Namespace) -> int:
             seed=args.seed,
             force=args.force,
         )
-    except FileExistsError as err:
-        print(f"error: {err}", file=sys.stderr)
+    except FileExistsError:  # the library's message names its argument; this one the option
+        print(
+            f"error: --out {args.out} is not empty and holds no earlier from-bvh dataset; pass --force to "
+            "convert into it anyway (files the command did not write are kept)",
+            file=sys.stderr,
+        )
         return 2
     except KeyboardInterrupt:
         print(
@@ -269,7 +302,9 @@ def _book_execute(args: argparse.Namespace) -> int:
     # the chapters' kernels inherit the run's settings (exported by _settings) and this: a chapter that would train a
     # model outside `train book`'s plan fails instead of training
     os.environ["MOTIONLAB_NO_TRAIN"] = "1"
-    print(f"executing {len(chapters)} chapters ({profile}), {args.jobs} at a time -> {out_dir}", flush=True)
+    from .data.from_bvh import plural
+
+    print(f"executing {plural(len(chapters), 'chapter')} ({profile}), {args.jobs} at a time -> {out_dir}", flush=True)
     start = time.monotonic()
     last = {c.stem for c in chapters if runner.runs_last(c)}  # summaries that read the others' results
     from .paths import cache_dir
@@ -336,9 +371,15 @@ def _generate(args: argparse.Namespace) -> int:
     from .io.provenance import motion_provenance
     from .train.device import get_device
 
+    if args.list_words:
+        return _list_words(args)
     texts = [t.strip() for t in args.texts]
+    if not texts:
+        raise ValueError('give one or more texts, e.g. motionlab generate "a person waves" --out wave.html')
     if not all(texts):
         raise ValueError("every text must be non-empty")
+    if args.out is None:
+        raise ValueError("--out is required: the file to write, ending in .npy, .bvh or .html")
     lengths = args.length * len(texts) if len(args.length) == 1 else args.length
     if len(lengths) != len(texts):
         raise ValueError(f"give one --length for all texts or one per text; got {len(args.length)} for {len(texts)}")
@@ -356,19 +397,22 @@ def _generate(args: argparse.Namespace) -> int:
     with _probe_then_run():
         _announce_training(profile, ["t2m/dynamic"] + (["discord/vq"] if args.decoder == "discord" else []), args.data)
         dataset = _command_dataset(args.data, profile)
+        _warn_unknown_words(texts, dataset, profile, args.data)  # before any training or sampling
         pipe = text_to_motion_for_dataset(dataset, profile, device=args.device)
         decoder = None
         if args.decoder == "discord":
             from . import models
 
             decoder = models.load("discord/vq", dataset, profile, device=args.device)
+    segments = None
     if len(texts) == 1:
         features = pipe.generate(texts, lengths, seed=args.seed, decoder=decoder)[0]
     else:  # several actions: Two-Phase Sampling (M2D2M Algorithm 1)
         from .multimotion import MultiMotionGenerator
 
         generator = MultiMotionGenerator.from_pipeline(pipe, decoder=decoder)
-        features = generator.generate(texts, lengths, method="tps", seed=args.seed, T_s=args.T_s)[0].features
+        motion = generator.generate(texts, lengths, method="tps", seed=args.seed, T_s=args.T_s)[0]
+        features, segments = motion.features, list(zip([0, *motion.boundaries], texts))  # where each action starts
     record = motion_provenance(
         texts,
         profile,
@@ -380,10 +424,60 @@ def _generate(args: argparse.Namespace) -> int:
         data=args.data or "embedded",
         precision=args.settings.resolved_precision(get_device(args.device)),
     )
-    written = save_motion(features, args.out, title=" / ".join(texts), provenance=record)
+    written = save_motion(features, args.out, title=" / ".join(texts), provenance=record, segments=segments)
     print(written)  # the path alone on stdout, for scripts; what to do with it goes to stderr
     for line in _after_generate(written, profile):
         print(line, file=sys.stderr)
+    return 0
+
+
+def _warn_unknown_words(texts: list[str], dataset, profile: str, data: str | None) -> None:
+    """A ``warning:`` line per text with words the model's vocabulary lacks (the model reads each as the same
+    unknown-word token), then where to see the words it knows."""
+    from .text.known import unknown_word_warnings
+
+    lines = unknown_word_warnings(texts, model_vocabulary(dataset, profile)) if texts else []
+    for line in lines:
+        print(f"warning: {line}", file=sys.stderr)
+    if lines:
+        options = f" --profile {profile}" + (f" --data {data}" if data else "")
+        print(
+            f"note: `motionlab generate --list-words{options}` lists the words the model knows and its data's actions",
+            file=sys.stderr,
+            flush=True,
+        )
+
+
+def model_vocabulary(dataset, profile: str):
+    """The word vocabulary (:class:`motionlab.text.Vocabulary`) of the text-to-motion model trained on ``dataset``
+    at ``profile``: built from the training split's captions as
+    :func:`motionlab.diffusion.pipeline.text_to_motion_for_dataset` builds it, so it is known without training or
+    loading the model."""
+    from .diffusion.training import build_vocabulary, diffusion_training_config
+
+    config = diffusion_training_config(profile, num_codes=2)  # the text settings do not depend on the codebook
+    return build_vocabulary([[c.text for c in clip.captions] for clip in dataset.split("train")], config)
+
+
+def _list_words(args: argparse.Namespace) -> int:
+    """``generate --list-words``: the embedded data's action families and the words the model knows."""
+    from .text.known import action_families, known_words, unknown_word_warnings
+
+    if args.out is not None:
+        raise ValueError("--list-words lists what the model knows and generates nothing; leave out --out")
+    profile = args.settings.profile
+    dataset = _command_dataset(args.data, profile)
+    vocabulary = model_vocabulary(dataset, profile)
+    words = known_words(vocabulary)
+    if args.data is None:
+        families = action_families()
+        print(f"actions ({len(families)} families of the embedded data): {', '.join(families)}")
+    else:
+        print(f"actions: those the captions of {args.data} describe (in the words below)")
+    print(f"words the {profile} text-to-motion model knows ({len(words)}; it reads any other word as unknown):")
+    print(textwrap.fill(" ".join(words), width=100, break_on_hyphens=False))
+    for line in unknown_word_warnings([t.strip() for t in args.texts if t.strip()], vocabulary):
+        print(f"warning: {line}", file=sys.stderr)
     return 0
 
 
@@ -451,7 +545,13 @@ def _check_generation_lengths(lengths: list[int], profile: str) -> None:
     from .diffusion.pipeline import FRAMES_PER_TOKEN, check_lengths
     from .diffusion.training import diffusion_training_config
 
-    check_lengths(lengths, len(lengths))  # positive multiples of 4
+    for n in lengths:  # the library's check_lengths, in the words of the option
+        if n < FRAMES_PER_TOKEN or n % FRAMES_PER_TOKEN:
+            raise ValueError(
+                f"--length {n}: lengths are positive multiples of {FRAMES_PER_TOKEN} frames at 20 fps "
+                f"(a token is {FRAMES_PER_TOKEN} frames), e.g. 40 or 120"
+            )
+    check_lengths(lengths, len(lengths))
     longest = diffusion_training_config(profile, num_codes=2).max_tokens * FRAMES_PER_TOKEN
     for n in lengths:
         if n > longest:
@@ -503,6 +603,7 @@ def _check_cache_writable() -> None:
 def _convert(args: argparse.Namespace) -> int:
     from .io import convert_motion
 
+    _check_mapping(args.mapping)
     if not args.dst.is_dir() and args.dst.exists() and not args.force:
         print(f"error: {args.dst} exists; pass --force to replace it", file=sys.stderr)
         return 2
@@ -520,6 +621,8 @@ def _evaluate(args: argparse.Namespace) -> int:
     profile = args.settings.profile
     config = _evaluation_config(args, default_repeats(profile) if args.repeats is None else args.repeats)
     if args.json is not None:
+        if args.json.is_file() and not args.force:  # the library's check, in the words of the options
+            raise ValueError(f"--json {args.json} exists; pass --force to replace it")
         check_json_path(args.json, force=args.force)  # refuse before hours of work, not after
         _check_writable_folder(args.json.parent, "--json")
     _check_evaluation_size(config)
@@ -528,8 +631,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         dataset = _command_dataset(args.data, profile)
         with _phase_lines(not sys.stderr.isatty()):  # bars on a terminal, one line per phase in a log
             table = EVALUATORS[args.task](dataset, config, profile, device=args.device, progress=sys.stderr.isatty())
-    print(table.header())
-    print(table.to_markdown())
+    print(table)  # its header line, then the Markdown table
     if args.json is not None:
         print(f"wrote {write_json(table, args.json, force=args.force)}", file=sys.stderr)
     return 0
@@ -859,7 +961,10 @@ def _settings(args: argparse.Namespace):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from . import __version__
+
     parser = _Parser(prog="motionlab", description=__doc__.splitlines()[0], epilog=EPILOG)
+    parser.add_argument("--version", action="version", version=f"motionlab {__version__}", help="print the version")
     parser.add_argument(
         "--threads",
         type=int,
@@ -949,11 +1054,13 @@ def build_parser() -> argparse.ArgumentParser:
         "from-bvh",
         help="convert a folder of BVH takes into a HumanML3D-layout dataset (resumable)",
         description="Your own mocap as a dataset the book trains on (train ... --data DATASET): every .bvh in "
-        "FOLDER becomes new_joints, new_joint_vecs and texts; then splits and Mean/Std. A re-run "
+        "FOLDER becomes new_joints, new_joint_vecs and texts; then splits and Mean/Std. Each take's rig is "
+        "detected from its joint names (a BVH motionlab wrote, CMU's, t2m's) unless --mapping gives one. A re-run "
         "converts only new or changed takes. Skipped takes are listed with the reason.",
         epilog=examples_epilog(
-            ("data from-bvh takes/ --out my-mocap", "captions from the file names, CMU joint names"),
-            ("data from-bvh takes/ --out my-mocap --captions captions.csv --mapping t2m", "your captions and crops"),
+            ("data from-bvh takes/ --out my-mocap", "captions from the file names, the rig from the joint names"),
+            ("data from-bvh takes/ --out my-mocap --captions captions.csv", "your captions and crops"),
+            ("data from-bvh takes/ --out my-mocap --mapping my-rig.json --scale 0.01", "your rig's joint map"),
         ),
     )
     from_bvh.add_argument("folder", type=Path, help="folder with the .bvh takes (not searched recursively)")
@@ -965,11 +1072,17 @@ def build_parser() -> argparse.ArgumentParser:
         help="CSV with columns take,caption[,start,end] (crop in frames at 20 fps); "
         "default: captions from the file names",
     )
-    from_bvh.add_argument("--mapping", default="cmu", choices=["cmu", "t2m"], help="joint names of the BVH rig")
+    from_bvh.add_argument("--mapping", type=_mapping_argument, default="auto", help=MAPPING_HELP)
     from_bvh.add_argument("--scale", type=float, default=None, help="BVH units to metres (default: the rig's)")
     from_bvh.add_argument("--up", choices=["y", "z"], default=None, help="up axis of the BVH (default: y)")
     from_bvh.add_argument("--seed", type=_seed_argument, default=0, help="seeds the train/val/test split (default: 0)")
-    from_bvh.add_argument("--force", action="store_true", help="replace an existing non-empty --out folder")
+    from_bvh.add_argument(
+        "--force",
+        action="store_true",
+        help="convert into a non-empty --out that holds no earlier from-bvh dataset, or rebuild one from scratch; "
+        "only the files from-bvh wrote (listed in --out's .motionlab-manifest.json) are replaced, any other "
+        "file there stays",
+    )
     from_bvh.set_defaults(func=_data_from_bvh)
 
     train = sub.add_parser(
@@ -1080,15 +1193,29 @@ def build_parser() -> argparse.ArgumentParser:
         "generate",
         help="text to motion; several texts make one multi-action motion (TPS)",
         description="Generate a motion from text with the book's discrete-diffusion model (trained on first use). "
-        "Several texts are generated jointly with Two-Phase Sampling.",
+        "Several texts are generated jointly with Two-Phase Sampling. The model knows only the words of its "
+        "training captions (with the embedded data: walk, run, jump, wave and its other action families); "
+        "--list-words lists them, and a warning names any word of a text it does not know.",
         epilog=examples_epilog(
             ('generate "a person waves" --profile smoke --out wave.html', "seconds; then open wave.html"),
             ('generate "a person walks" "a person jumps" --length 80 --out two.html', "two actions, one motion"),
             ('generate "a person waves" --decoder discord --out wave.bvh', "DisCoRD-decoded, for Blender"),
             ('generate "a person waves" --seed 1 --out wave.npy', "another sample; HumanML3D features"),
+            ("generate --list-words", "the actions and words the model knows"),
         ),
     )
-    gen.add_argument("texts", nargs="+", help='one or more action descriptions, e.g. "a person waves"')
+    gen.add_argument(
+        "texts",
+        nargs="*",
+        help='one or more action descriptions, e.g. "a person waves"; words the model does not know are named '
+        "in a warning before anything is generated",
+    )
+    gen.add_argument(
+        "--list-words",
+        action="store_true",
+        help="list the action families of the embedded data and every word the model knows, then stop "
+        "(generates nothing; no --out)",
+    )
     gen.add_argument(
         "--length",
         type=int,
@@ -1106,8 +1233,9 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument(
         "--out",
         type=Path,
-        required=True,
-        help="output .npy (features), .bvh (fixed bone lengths) or .html; never replaced without --force",
+        default=None,
+        help="output .npy (features), .bvh (fixed bone lengths) or .html; never replaced without --force (no "
+        "default: required, except with --list-words)",
     )
     gen.add_argument("--force", action="store_true", help="replace an existing --out file")
     gen.add_argument(
@@ -1136,11 +1264,12 @@ def build_parser() -> argparse.ArgumentParser:
             ("convert take.bvh take.html", "look at a take in the browser"),
             ("convert take.bvh take.npy --start 40 --end 200", "frames 40-199 as HumanML3D features"),
             ("convert wave.npy wave.bvh", "features to BVH with the t2m skeleton's bones"),
+            ("convert wave.bvh wave.html", "motionlab's own BVH back (its rig is detected, as CMU's is)"),
         ),
     )
     convert.add_argument("src", type=Path, help="input .bvh or .npy (features (T, 263) or joints (T, 22, 3))")
     convert.add_argument("dst", type=Path, help="output .npy, .bvh or .html")
-    convert.add_argument("--mapping", default="cmu", choices=["cmu", "t2m"], help="joint-name mapping of a BVH input")
+    convert.add_argument("--mapping", type=_mapping_argument, default="auto", help=MAPPING_HELP)
     convert.add_argument("--scale", type=float, default=None, help="BVH units to metres (default: the rig's)")
     convert.add_argument("--up", choices=["y", "z"], default=None, help="up axis of the BVH (default: y)")
     convert.add_argument("--start", type=int, default=0, help="first frame to keep, at 20 fps")
@@ -1178,6 +1307,27 @@ def _interrupted(started: float) -> str:
     ckpt = latest_checkpoint(work)
     where = f"at its checkpoint of step {int(ckpt.name[5:]):,}" if ckpt else "from the start (no checkpoint yet)"
     return f"interrupted while training {name!r} ({profile}); the same command resumes it {where}"
+
+
+MAPPING_HELP = (
+    "the BVH rig's joint names: auto (detected from them: a BVH motionlab wrote, CMU's, t2m's), cmu, t2m, or "
+    "FILE.json, your rig's joint map (t2m joint name -> BVH joint name, optionally with scale and up; "
+    "book/command_line.md shows one)"
+)
+
+
+def _mapping_argument(text: str) -> str:
+    """``--mapping``: a preset name or a joint-map ``.json`` file (whose existence :func:`_check_mapping` judges
+    before any work)."""
+    from .io.bvh_import import MAPPINGS
+
+    if text.lower() in MAPPINGS:
+        return text.lower()
+    if text.lower().endswith(".json"):
+        return text
+    raise argparse.ArgumentTypeError(
+        f"expected {', '.join(MAPPINGS)} or a joint map FILE.json (t2m joint name -> BVH joint name), got {text!r}"
+    )
 
 
 MAX_SEED = 2**63 - 1  # the largest seed torch's generators take

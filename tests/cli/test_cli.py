@@ -105,6 +105,8 @@ def test_generate_single_and_multi_action(tmp_path, isolated_cache, capsys):
     assert made["text"] == "a person walks / a person jumps" and made["profile"] == "smoke" and made["seed"] == "3"
     assert made["models"] == "t2m/dynamic, tokenizer/vq" and made["lengths"] == "40 32"
     assert made["code"].startswith(("commit ", "motionlab "))
+    starts = [segment["start_frame"] for segment in made["segments"]]  # where each action begins, for a reader
+    assert [segment["text"] for segment in made["segments"]] == texts and starts[0] == 0 and starts[1] > 0
     page = tmp_path / "wave.html"
     assert main(["generate", "a person waves", "--length", "40", "--out", str(page), *common]) == 0
     assert f"open {page} in a browser" in capsys.readouterr().err

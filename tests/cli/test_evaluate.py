@@ -254,7 +254,8 @@ def test_existing_json_is_never_overwritten_without_force(data, tmp_path, capsys
     out = tmp_path / "table.json"
     out.write_text("{}")
     assert evaluate("reconstruction", tmp_path / "missing", "--decoder", "vq", "--json", str(out)) == 2
-    assert "exists; pass force=True (--force)" in capsys.readouterr().err and out.read_text() == "{}"
+    err = capsys.readouterr().err
+    assert f"--json {out} exists; pass --force" in err and "force=True" not in err and out.read_text() == "{}"
     assert evaluate("reconstruction", data, "--decoder", "vq", "--limit", "4", "--json", str(out), "--force") == 0
     assert read(out)["rows"]["VQ-VAE decoder"]["fid"]["n"] == 1
     assert evaluate("reconstruction", data, "--json", str(tmp_path / "nowhere" / "t.json")) == 2

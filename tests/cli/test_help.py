@@ -38,7 +38,7 @@ def test_every_argument_is_documented_and_every_default_shown():
         assert isinstance(parser.formatter_class, type) and issubclass(parser.formatter_class, _HelpFormatter)
         formatter = parser._get_formatter()
         for action in parser._actions:
-            if isinstance(action, (argparse._HelpAction, argparse._SubParsersAction)):
+            if isinstance(action, (argparse._HelpAction, argparse._VersionAction, argparse._SubParsersAction)):
                 continue
             name = f"{' '.join(path)} {action.option_strings or action.dest}"
             if not action.help:

@@ -105,6 +105,7 @@ def test_readme_commands_run_in_smoke(tmp_path, monkeypatch, request, capsys):
         ran.append(argv[0])
     assert ran.count("evaluate") == 6 and {"data", "train", "generate"} <= set(ran)
     outputs = ("wave.html", "walk-jump.html", "wave-discord.bvh", "wave.bvh", "two.html", "table1.json")
+    outputs += ("wave-back.html", "wave-back.npy")  # the BVHs motionlab wrote, read back with no --mapping
     for output in outputs + (("take.npy", "take.html") if "convert" in ran else ()):
         assert (tmp_path / output).is_file(), output
     assert "<dt>profile</dt><dd>smoke</dd>" in (tmp_path / "wave.html").read_text()  # the taste records its making

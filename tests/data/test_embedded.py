@@ -184,6 +184,7 @@ def test_layout_matches_humanml3d(dataset):
     from motionlab.data import check_dataset, read_captions
 
     assert check_dataset(dataset) == []
+    assert check_dataset(dataset / "nowhere") == [f"{dataset / 'nowhere'} does not exist"]
     splits = {s: (dataset / f"{s}.txt").read_text().split() for s in ("train", "val", "test", "all")}
     assert sorted(splits["train"] + splits["val"] + splits["test"]) == sorted(splits["all"])
     assert len(set(splits["all"])) == N_SMALL and all(i.startswith("E") and len(i) == 7 for i in splits["all"])

@@ -21,7 +21,7 @@ from motionlab.data.embedded import generate_clip
 from motionlab.data.from_bvh import caption_from_name, dataset_from_bvh, read_captions_csv
 from motionlab.io import bvh_to_features, save_bvh
 from motionlab.paths import shared_data_dir
-from motionlab.representation import recover_from_ric
+from motionlab.representation import T2M, recover_from_ric
 
 GOOD = {  # file -> (embedded family, poses at 20 fps, the caption its name gives)
     "walk_forward.bvh": ("walk", 81, "walk forward"),
@@ -220,18 +220,22 @@ def test_bad_arguments_are_judged_before_any_work(takes, tmp_path, monkeypatch):
     foreign = tmp_path / "foreign"
     foreign.mkdir()
     (foreign / "precious.txt").write_text("keep me")
-    with pytest.raises(FileExistsError, match="--force"):
+    with pytest.raises(FileExistsError, match="force=True converts into it anyway"):
         _convert(takes, foreign)
     assert _snapshot(foreign) == {"precious.txt": b"keep me"}
     assert not (tmp_path / "ds").exists()
 
 
-def test_force_replaces_a_foreign_folder(takes, tmp_path):
+def test_force_converts_into_a_foreign_folder_and_keeps_its_files(takes, tmp_path):
     out = tmp_path / "ds"
     out.mkdir()
     (out / "old.txt").write_text("old")
     report = _convert(takes, out, force=True)
-    assert len(report.converted) == 5 and not (out / "old.txt").exists() and check_dataset(out) == []
+    assert len(report.converted) == 5 and (out / "old.txt").read_text() == "old" and check_dataset(out) == []
+    manifest = json.loads((out / from_bvh_module.MANIFEST).read_text())
+    on_disk = {str(p.relative_to(out)) for p in out.rglob("*") if p.is_file()}
+    assert set(manifest["files"]) == on_disk - {"old.txt"}  # every file it wrote, and nothing else
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # the folder it built in is gone
 
 
 def test_small_datasets_get_usable_splits(tmp_path):
@@ -255,11 +259,11 @@ def test_nothing_convertible_is_an_error_and_leaves_nothing(tmp_path):
     folder = tmp_path / "takes"
     folder.mkdir()
     save_bvh(_joints("wave", 30, 0), folder / "wave.bvh")
-    with pytest.raises(ValueError, match="none of the 1 takes.*too short"):
+    with pytest.raises(ValueError, match="the only take in .* could not be converted.*too short"):
         _convert(folder, tmp_path / "ds")
     assert not (tmp_path / "ds").exists()
     (tmp_path / "empty").mkdir()
-    with pytest.raises(ValueError, match="none of the 1 takes"):
+    with pytest.raises(ValueError, match="the only take in .* could not be converted"):
         _convert(folder, tmp_path / "empty")
     assert list((tmp_path / "empty").iterdir()) == []
 
@@ -273,7 +277,7 @@ def test_a_rerun_that_converts_nothing_leaves_the_dataset_as_it_was(takes, tmp_p
     failing.mkdir()
     save_bvh(_joints("wave", 30, 0), failing / "wave.bvh")  # too short
     for force in (False, True):
-        with pytest.raises(ValueError, match="none of the 1 takes"):
+        with pytest.raises(ValueError, match="the only take in .* could not be converted"):
             _convert(failing, out, force=force)
         assert _snapshot(out) == before, force
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # no half-built folder beside it
@@ -335,14 +339,15 @@ def test_cli_converts_resumes_and_refuses(takes, tmp_path, capsys):
     assert main(["data", "check", str(out)]) == 0
     assert main(args) == 0 and "0 converted" in capsys.readouterr().out  # resumed, nothing new
     assert main(["data", "from-bvh", str(takes), "--out", str(takes / "notes.txt")]) == 2
-    assert "is not a folder" in capsys.readouterr().err
+    assert "exists and is a file" in capsys.readouterr().err
     assert main(["data", "from-bvh", str(tmp_path / "nowhere"), "--out", str(tmp_path / "x")]) == 2
     assert "does not exist" in capsys.readouterr().err
     foreign = tmp_path / "foreign"
     foreign.mkdir()
     (foreign / "keep.txt").write_text("x")
     assert main(["data", "from-bvh", str(takes), "--out", str(foreign), "--mapping", "t2m"]) == 2
-    assert "--force" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert f"--out {foreign} is not empty" in err and "pass --force" in err and "force=True" not in err
 
 
 def test_cli_ctrl_c_says_how_to_resume(takes, tmp_path, monkeypatch, capsys):
@@ -359,3 +364,93 @@ def test_a_converted_folder_trains(takes, tmp_path, isolated_cache, capsys):
     assert main(["data", "from-bvh", str(takes), "--out", str(out), "--mapping", "t2m"]) == 0
     assert main(["train", "vq", "--profile", "smoke", "--data", str(out), "--device", "cpu"]) == 0
     assert "trained and cached" in capsys.readouterr().out
+
+
+# --- your files are safe (a manifest), and every rig reads ---------------------------------------------------
+
+
+def test_force_keeps_a_file_the_user_put_in_the_dataset(takes, tmp_path, capsys):
+    """Issue 63: `data from-bvh ... --force` deleted a notes.txt the user had put in the output folder."""
+    out = tmp_path / "ds"
+    args = ["data", "from-bvh", str(takes), "--out", str(out), "--mapping", "t2m"]
+    assert main(args) == 0
+    (out / "notes.txt").write_text("my notes")
+    (out / "texts" / "README.txt").write_text("mine too")
+    assert main([*args, "--force"]) == 0
+    assert (out / "notes.txt").read_text() == "my notes" and (out / "texts" / "README.txt").read_text() == "mine too"
+    assert check_dataset(out) == [] and "5 converted" in capsys.readouterr().out
+    # a take that goes away takes its clip with it, but only the clip's own files
+    fewer = tmp_path / "fewer"
+    shutil.copytree(takes, fewer)
+    (fewer / "kick.bvh").unlink()
+    assert main(["data", "from-bvh", str(fewer), "--out", str(out), "--mapping", "t2m"]) == 0
+    assert not (out / "new_joint_vecs" / "kick.npy").exists() and (out / "texts" / "README.txt").is_file()
+    listed = json.loads((out / from_bvh_module.MANIFEST).read_text())["files"]
+    assert "new_joint_vecs/kick.npy" not in listed and "notes.txt" not in listed
+
+
+def test_a_user_file_where_the_dataset_needs_one_stops_the_run_before_any_work(takes, tmp_path, monkeypatch):
+    out = tmp_path / "ds"
+    out.mkdir()
+    (out / "Mean.npy").write_bytes(b"my own statistics")
+    monkeypatch.setattr(from_bvh_module, "convert_clip", lambda *args: pytest.fail("a take was converted"))
+    with pytest.raises(ValueError, match=r"holds 1 file that the dataset would overwrite.*Mean\.npy; move it away"):
+        _convert(takes, out, force=True)
+    assert _snapshot(out) == {"Mean.npy": b"my own statistics"}
+
+
+def test_a_dataset_without_a_manifest_is_known_by_its_meta(takes, tmp_path):
+    """A dataset written before manifests existed: its meta.json says which files are the command's."""
+    out = tmp_path / "ds"
+    _convert(takes, out)
+    (out / from_bvh_module.MANIFEST).unlink()
+    (out / "notes.txt").write_text("keep")
+    assert from_bvh_module.written_files(out) >= {"meta.json", "Mean.npy", "new_joint_vecs/kick.npy"}
+    report = _convert(takes, out, force=True)
+    assert len(report.converted) == 5 and (out / "notes.txt").read_text() == "keep"
+    assert (out / from_bvh_module.MANIFEST).is_file()
+
+
+def test_the_summary_counts_in_words(tmp_path):
+    folder = tmp_path / "takes"
+    folder.mkdir()
+    save_bvh(_joints("wave", 50, 0), folder / "wave.bvh")
+    save_bvh(_joints("wave", 30, 1), folder / "short_wave.bvh")
+    report = dataset_from_bvh(folder, tmp_path / "ds", progress=False)
+    summary = report.summary()
+    assert "1 clip," in summary and "1 clips" not in summary and "skipped 1 take:" in summary
+    assert "rigs: t2m (1 clip)" in summary and "only 1 clip:" in summary
+
+
+def test_the_rig_is_detected_per_take_and_a_joint_map_reads_any_rig(cmu_folder, tmp_path, capsys):
+    """A folder that mixes a CMU take, a t2m take in centimetres and a renamed rig: auto reads the first two and
+    names what the third has; a joint-map file reads it."""
+    folder = tmp_path / "takes"
+    folder.mkdir()
+    shutil.copy(cmu_folder / "131_03.bvh", folder / "hop_forward.bvh")
+    joints = _joints("squat", 60, 0)
+    save_bvh(joints, folder / "squat.bvh", unit="cm")
+    rename = {"pelvis": "Root", "left_knee": "LKnee", "head": "Skull"}
+    text = (folder / "squat.bvh").read_text()
+    for old, new in rename.items():
+        text = text.replace(f" {old}\n", f" {new}\n")
+    (folder / "renamed_squat.bvh").write_text(text)
+    report = dataset_from_bvh(folder, tmp_path / "auto", progress=False)
+    assert set(report.converted) == {"hop_forward", "squat"}
+    assert report.rigs == {"hop_forward": "cmu", "squat": "t2m"}
+    why = report.skipped["renamed_squat.bvh"]
+    assert why.startswith("wrong skeleton") and "Root" in why and "--mapping FILE.json" in why
+    meters = np.load(tmp_path / "auto" / "new_joint_vecs" / "squat.npy")
+    np.testing.assert_allclose(meters, bvh_to_features(folder / "squat.bvh", mapping="t2m", scale=0.01), atol=1e-5)
+
+    joint_map = tmp_path / "my-rig.json"
+    joint_map.write_text(json.dumps({"joints": {n: rename.get(n, n) for n in T2M.joint_names}, "scale": 0.01}))
+    only = tmp_path / "only"
+    only.mkdir()
+    shutil.copy(folder / "renamed_squat.bvh", only / "squat.bvh")
+    assert main(["data", "from-bvh", str(only), "--out", str(tmp_path / "mapped"), "--mapping", str(joint_map)]) == 0
+    capsys.readouterr()
+    np.testing.assert_allclose(np.load(tmp_path / "mapped" / "new_joint_vecs" / "squat.npy"), meters, atol=1e-5)
+    assert main(["data", "from-bvh", str(only), "--out", str(tmp_path / "x"), "--mapping", "nope.json"]) == 2
+    assert "--mapping nope.json: the joint map does not exist" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()

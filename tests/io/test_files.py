@@ -32,6 +32,24 @@ def test_save_motion_picks_the_format(tmp_path, clip):
     np.testing.assert_allclose(np.load(save_motion(features, tmp_path / "b.npy")), features)  # as given
 
 
+def test_segments_go_into_the_player_and_the_sidecar(tmp_path, clip):
+    import json
+
+    segments = [(0, "a person walks"), (20, "a person waves")]
+    page = save_motion(clip, tmp_path / "two.html", segments=segments).read_text()
+    assert "a person waves" in page and '"segments"' in page
+    written = save_motion(clip, tmp_path / "two.bvh", segments=segments)
+    sidecar = json.loads((tmp_path / "two.bvh.json").read_text())
+    assert sidecar["segments"] == [
+        {"start_frame": 0, "text": "a person walks"},
+        {"start_frame": 20, "text": "a person waves"},
+    ]
+    assert read_bvh(written).n_frames == 45  # the BVH itself is unchanged
+    with pytest.raises(ValueError, match="segment starts must begin at 0"):
+        save_motion(clip, tmp_path / "bad.npy", segments=[(5, "starts late")])
+    assert not (tmp_path / "bad.npy").exists()
+
+
 def test_unknown_extension_and_bad_motion_write_nothing(tmp_path, clip):
     with pytest.raises(ValueError, match=r"unknown extension '\.gif'"):
         save_motion(clip, tmp_path / "a.gif")

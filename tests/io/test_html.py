@@ -80,7 +80,7 @@ const page = fs.readFileSync(process.argv[2], "utf8");
 const json = page.match(/<script type="application\/json" id="motion-data">([\s\S]*?)<\/script>/)[1];
 const code = [...page.matchAll(/<script>([\s\S]*?)<\/script>/g)].map((m) => m[1]);
 let pen = null, segments = 0;
-const ctx = { clearRect() { segments = 0; }, beginPath() {}, stroke() {}, fill() {}, arc() {},
+const ctx = { clearRect() { segments = 0; }, beginPath() {}, stroke() {}, fill() {}, arc() {}, fillRect() {},
               moveTo(x, y) { pen = [x, y]; }, lineTo(x, y) { if (isFinite(x + y + pen[0] + pen[1])) segments++; } };
 const on = {}, els = {};
 function el(id) {
@@ -95,8 +95,10 @@ code.forEach((c) => eval(c));
 const out = { first: els.label.textContent, max: els.frame.max };
 for (let k = 0; k < 12; k++) queue.shift()(k * 50);
 out.played = els.label.textContent; out.segments = segments;
+out.action = els.segment ? els.segment.textContent : null;
 on["play:click"](); out.button = els.play.textContent;
 els.frame.value = "3"; on["frame:input"](); out.scrubbed = els.label.textContent;
+out.scrubbedAction = els.segment ? els.segment.textContent : null;
 console.log(JSON.stringify(out));
 """
 
@@ -115,3 +117,38 @@ def test_page_script_runs_plays_and_pauses(tmp_path, walk):
     assert out["played"].startswith("frame 12 / 50")  # 0.55 s at 20 fps
     assert out["segments"] > 21  # bones, floor grid and path, all finite
     assert out["button"] == "Play" and out["scrubbed"].startswith("frame 4 / 50")
+
+
+SEGMENTS = [(0, "a person walks"), (10, "a person waves </script> with both hands")]
+
+
+def test_segments_name_the_action_playing_and_mark_the_boundaries(tmp_path, walk):
+    page = html_animation(walk, title="two actions", segments=SEGMENTS)
+    assert _frame_data(page)["segments"] == [
+        {"start": 0, "label": SEGMENTS[0][1]},
+        {"start": 10, "label": SEGMENTS[1][1]},
+    ]
+    assert '<div id="segment">' in page and '<canvas id="timeline" width="520" height="18">' in page
+    assert "</script> with" not in page  # a label stays data
+    plain = html_animation(walk)
+    assert '<div id="segment" hidden>' in plain and "segments" not in _frame_data(plain)
+    node = shutil.which("node")
+    if node is None:
+        pytest.skip("node is not installed")
+    path = save_html_animation(walk, tmp_path / "two.html", segments=SEGMENTS)
+    harness = tmp_path / "harness.js"
+    harness.write_text(_HARNESS)
+    run = subprocess.run([node, str(harness), str(path)], capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0, run.stderr
+    out = json.loads(run.stdout)
+    assert out["played"].startswith("frame 12 / 50") and out["action"] == f"2/2: {SEGMENTS[1][1]}"
+    assert out["scrubbed"].startswith("frame 4 / 50") and out["scrubbedAction"] == f"1/2: {SEGMENTS[0][1]}"
+
+
+@pytest.mark.parametrize(
+    "segments, match",
+    [([], "non-empty"), ([(3, "a")], "begin at 0"), ([(0, "a"), (50, "b")], "below 50"), ([(0, 1)], "str label")],
+)
+def test_bad_segments_raise(walk, segments, match):
+    with pytest.raises(ValueError, match=match):
+        html_animation(walk, segments=segments)

@@ -24,6 +24,10 @@ is skipped and reported (never captioned by its file name behind the user's back
 are not in the folder are reported as a note. Tokens are ``word/POS`` with the embedded generator's
 lexicon (:func:`motionlab.data.embedded.captions.tag`); words outside it are tagged ``X`` ("other").
 
+The rig. By default (``mapping="auto"``) every take's rig is detected from its joint names
+(:func:`motionlab.io.bvh_import.detect_rig`: a BVH motionlab wrote, CMU's, t2m's), so a folder may mix them;
+``"cmu"``/``"t2m"`` insist on one, and a dict or a ``.json`` joint map (t2m joint -> BVH joint) reads any rig.
+
 Takes are skipped, with the reason in the report, when unreadable (truncated, NaN, malformed), when they
 lack a joint of the rig (``mapping``), when the crop is outside the take, and when the clip falls outside
 the length range HumanML3D's loaders keep: 40 to 199 feature frames at 20 fps (crop longer takes).
@@ -31,8 +35,14 @@ the length range HumanML3D's loaders keep: 40 to 199 feature frames at 20 fps (c
 Resuming. ``DATASET/meta.json`` records every clip's source (file name, SHA-1, crop) and the rig; a re-run
 into the same folder converts only what is new or changed and rewrites the texts, splits and statistics
 (a pure function of the clips and ``seed``: an unchanged folder gives the same bytes). Clips whose take
-has gone are removed. Any other non-empty ``DATASET`` is refused unless ``force`` (then it is replaced, once the
-new dataset is complete: it is built beside it). A run that converts no take leaves ``DATASET`` as it was.
+has gone are removed. Any other non-empty ``DATASET`` is refused unless ``force``. A run that converts no take
+leaves ``DATASET`` as it was.
+
+Your files are safe. ``DATASET/.motionlab-manifest.json`` lists every file the command wrote there (a
+dataset written before manifests existed: the files its ``meta.json`` records). Nothing else in the folder is
+ever deleted or overwritten: ``force`` builds the new dataset beside ``DATASET`` and, once it is complete,
+deletes the files the manifest lists and moves the new ones in, so a ``notes.txt`` of yours stays; a file of
+yours where the dataset needs one of its own (say ``Mean.npy``) is an error before any work.
 """
 
 from __future__ import annotations
@@ -53,7 +63,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from ..io.bvh import read_bvh
-from ..io.bvh_import import BvhRig, bvh_to_joints, resolve_rig
+from ..io.bvh_import import AUTO, BvhRig, bvh_to_joints, check_scale_up, resolve_rig
 from ..io.common import write_text_atomic
 from ..representation import T2M, Normalizer, joints_to_features, recover_from_ric
 from .embedded.captions import tag
@@ -65,6 +75,13 @@ VERSION = 1  # bump when converted clips change, so resumed runs reconvert them
 FPS = 20.0
 CSV_COLUMNS = ("take", "caption", "start", "end")
 UNKNOWN_POS = "X"  # spaCy's tag for "other": words the embedded lexicon does not know
+MANIFEST = ".motionlab-manifest.json"  # the files this command wrote into a dataset folder
+DATASET_FILES = ("meta.json", "Mean.npy", "Std.npy", "train.txt", "val.txt", "test.txt", "all.txt", MANIFEST)
+
+
+def plural(n: int, word: str, many: str | None = None) -> str:
+    """``"1 clip"``, ``"3 clips"`` (``many`` for irregular plurals)."""
+    return f"{n} {word if n == 1 else many or word + 's'}"
 
 
 @dataclass(frozen=True)
@@ -92,6 +109,7 @@ class FromBvhReport:
     converted: dict[str, int] = field(default_factory=dict)  # clip id -> feature frames, converted this run
     reused: dict[str, int] = field(default_factory=dict)  # clip id -> feature frames, kept from an earlier run
     skipped: dict[str, str] = field(default_factory=dict)  # take file name (or clip id) -> why
+    rigs: dict[str, str] = field(default_factory=dict)  # clip id -> the rig its take was read with
     splits: dict[str, int] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
     seconds: float = 0.0
@@ -105,13 +123,16 @@ class FromBvhReport:
         frames = sum(self.converted.values()) + sum(self.reused.values())
         per = f", {self.convert_seconds / len(self.converted):.2f} s each" if self.converted else ""
         lines = [
-            f"wrote {self.out}: {len(self.clips)} clips, {frames} frames at 20 fps ({frames / FPS:.1f} s of motion); "
-            f"{len(self.converted)} converted{per}, {len(self.reused)} reused; "
+            f"wrote {self.out}: {plural(len(self.clips), 'clip')}, {plural(frames, 'frame')} at 20 fps "
+            f"({frames / FPS:.1f} s of motion); {len(self.converted)} converted{per}, {len(self.reused)} reused; "
             + " / ".join(f"{name} {n}" for name, n in self.splits.items())
             + f"; {self.seconds:.1f} s"
         ]
+        if self.rigs:
+            counts = {rig: sum(r == rig for r in self.rigs.values()) for rig in sorted(set(self.rigs.values()))}
+            lines.append("rigs: " + ", ".join(f"{rig} ({plural(n, 'clip')})" for rig, n in counts.items()))
         if self.skipped:
-            lines.append(f"skipped {len(self.skipped)}:")
+            lines.append(f"skipped {plural(len(self.skipped), 'take')}:")
             lines += [f"  {name}: {why}" for name, why in self.skipped.items()]
         lines += [f"note: {note}" for note in self.notes]
         return "\n".join(lines)
@@ -176,7 +197,7 @@ def read_captions_csv(path: str | os.PathLike) -> dict[str, dict[tuple[int, int 
                 continue
             where = f"{path} line {reader.line_num}"
             if len(row) != len(header):
-                raise ValueError(f"{where}: {len(row)} cells, the header has {len(header)} columns")
+                raise ValueError(f"{where}: {plural(len(row), 'cell')}, the header has {plural(len(header), 'column')}")
             cells = dict(zip(header, row))
             take = re.sub(r"\.bvh$", "", cells["take"].strip(), flags=re.IGNORECASE)
             if not take:
@@ -200,7 +221,7 @@ def list_takes(folder: str | os.PathLike) -> list[Path]:
     folder = Path(folder)
     if not folder.is_dir():
         raise FileNotFoundError(
-            f"BVH folder {folder} does not exist" if not folder.exists() else f"{folder} is not a folder"
+            f"the BVH folder {folder} does not exist" if not folder.exists() else f"{folder} is a file, not a folder"
         )
     takes = sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() == ".bvh")
     if not takes:
@@ -245,7 +266,7 @@ def plan_clips(
         unused = sorted(t for t in captions if t not in stems)
         if unused:
             notes.append(
-                f"the captions CSV names {len(unused)} take(s) not in the folder: {', '.join(unused[:10])}"
+                f"the captions CSV names {plural(len(unused), 'take')} not in the folder: {', '.join(unused[:10])}"
                 + (" ..." if len(unused) > 10 else "")
             )
     return plans, skipped, notes
@@ -254,12 +275,38 @@ def plan_clips(
 # --- converting one clip ----------------------------------------------------------------------------------
 
 
-def convert_clip(path: Path, plan: ClipPlan, rig: BvhRig) -> tuple[np.ndarray, np.ndarray]:
-    """Features ``(T-1, 263)`` and joints ``(T-1, 22, 3)`` (float32) of one clip; ``_Skip`` says why not."""
+@dataclass(frozen=True)
+class _RigRequest:
+    """The rig asked for: one rig for every take, or (``rig`` None) each take's detected from its joint names,
+    with ``scale``/``up`` overriding the detected one's."""
+
+    rig: BvhRig | None
+    scale: float | None = None
+    up: str | None = None
+
+    def settings(self) -> dict:
+        if self.rig is None:
+            return {"rig": AUTO, "joint_map": None, "scale": self.scale, "up": self.up}
+        rig = self.rig
+        return {"rig": rig.name, "joint_map": dict(rig.joint_map), "scale": rig.scale, "up": rig.up}
+
+
+def convert_clip(path: Path, plan: ClipPlan, rig: BvhRig | _RigRequest) -> tuple[np.ndarray, np.ndarray, str]:
+    """Features ``(T-1, 263)`` and joints ``(T-1, 22, 3)`` (float32) of one clip, and the name of the rig it was
+    read with; ``_Skip`` says why not. ``rig``: one rig, or a request whose rig is detected from the take's joint
+    names (``_RigRequest.rig`` None)."""
     try:
         bvh = read_bvh(path)
     except (ValueError, OSError, UnicodeDecodeError) as err:
         raise _Skip(f"unreadable: {str(err).removeprefix(f'{path}: ')}") from None
+    if isinstance(rig, _RigRequest):
+        if rig.rig is not None:
+            rig = rig.rig
+        else:
+            try:
+                rig = resolve_rig(AUTO, rig.scale, rig.up, bvh, path.name)
+            except ValueError as err:
+                raise _Skip(f"wrong skeleton: {str(err).removeprefix(f'{path.name}: ')}") from None
     missing = [rig.joint_map[t] for t in T2M.joint_names if rig.joint_map[t] not in bvh.names]
     if missing:
         raise _Skip(
@@ -288,7 +335,7 @@ def convert_clip(path: Path, plan: ClipPlan, rig: BvhRig) -> tuple[np.ndarray, n
         raise _Skip(f"cannot compute features: {err}") from None
     if not np.isfinite(features).all():
         raise _Skip("features contain NaN or inf values (joints that coincide or a broken take)")
-    return features, recover_from_ric(features, T2M.n_joints).astype(np.float32)
+    return features, recover_from_ric(features, T2M.n_joints).astype(np.float32), rig.name
 
 
 # --- the dataset ------------------------------------------------------------------------------------------
@@ -307,34 +354,110 @@ def _previous_meta(out: Path) -> dict | None:
     return meta if isinstance(meta, dict) and meta.get("generator") == GENERATOR else None
 
 
-def _prepare_out(out: Path, folder: Path, force: bool) -> tuple[dict | None, bool]:
-    """Judge ``out`` before any work: (meta of a run to resume or None, whether a dataset there is to be replaced)."""
+def _prepare_out(out: Path, folder: Path, force: bool) -> tuple[dict | None, bool, set[str]]:
+    """Judge ``out`` before any work: (meta of a run to resume or None, whether the files this command wrote there
+    are to be replaced, the files it wrote there before)."""
     resolved, source = out.resolve(), folder.resolve()
     if resolved == source or resolved in source.parents:
-        raise ValueError(f"out {out} must not be the BVH folder or a folder above it")
+        raise ValueError(f"the output folder {out} must not be the BVH folder or a folder above it")
     if out.exists() and not out.is_dir():
-        raise ValueError(f"out {out} exists and is not a folder")
+        raise ValueError(f"the output folder {out} exists and is a file")
     existing = out if out.exists() else next(p for p in resolved.parents if p.exists())
     if not os.access(existing, os.W_OK):
-        raise ValueError(f"cannot write to {existing} (out {out})")
+        raise ValueError(f"cannot write to {existing} (for the output folder {out}): permission denied")
     if not out.exists() or not any(out.iterdir()):
-        return None, False
-    previous = _previous_meta(out)
+        return None, False, set()
+    previous, ours = _previous_meta(out), written_files(out)
     if force:
-        return None, True  # replaced only when the new dataset is complete
+        return None, True, ours  # replaced only when the new dataset is complete
     if previous is None:
         raise FileExistsError(
-            f"out {out} exists, is not empty and is not an earlier from-bvh output; "
-            "pass --force (force=True) to replace it"
+            f"the output folder {out} is not empty and holds no earlier from-bvh dataset; force=True converts "
+            "into it anyway (keeping every file the command did not write)"
         )
-    return previous, False
+    return previous, False, ours
 
 
-def _remove_other_clips(out: Path, keep: set[str]) -> None:
-    """Delete clip files of an earlier run whose take has gone (or now fails): the dataset mirrors the folder."""
-    for path in sorted(p for sub in CLIP_FOLDERS for p in (out / sub).iterdir()):
-        if path.stem not in keep:
-            path.unlink()
+def written_files(out: str | os.PathLike) -> set[str]:
+    """The files (paths relative to ``out``) that this command wrote into ``out``: its manifest's list, or for a
+    dataset written before manifests existed, the files its ``meta.json`` records. Empty for any other folder."""
+    out = Path(out)
+    try:
+        manifest = json.loads((out / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        manifest = None
+    listed = manifest.get("files") if isinstance(manifest, dict) and manifest.get("generator") == GENERATOR else None
+    if isinstance(listed, list):
+        return {f for f in listed if isinstance(f, str) and _inside(f)}
+    previous = _previous_meta(out)
+    if previous is None:
+        return set()
+    clips = previous.get("clips") if isinstance(previous.get("clips"), dict) else {}
+    return {f for clip_id in clips for f in _clip_paths(str(clip_id)) if _inside(f)} | set(DATASET_FILES) - {MANIFEST}
+
+
+def _inside(relative: str) -> bool:
+    """A manifest entry names a file inside the folder (no absolute path, no ``..``)."""
+    path = Path(relative)
+    return not path.is_absolute() and ".." not in path.parts and relative != ""
+
+
+def _clip_paths(clip_id: str) -> list[str]:
+    return [p.as_posix() for p in clip_files(Path(""), clip_id)]
+
+
+class _Manifest:
+    """The manifest of a dataset folder: a file is listed before it is written, so an interrupted run leaves
+    nothing unlisted."""
+
+    def __init__(self, out: Path, files: set[str]):
+        self.out, self.files = out, set(files) | {MANIFEST}
+
+    def add(self, *relative: str) -> None:
+        new = set(relative) - self.files
+        if new:
+            self.files |= new
+            self.save()
+
+    def discard(self, relative: str) -> None:
+        self.files.discard(relative)
+
+    def save(self) -> None:
+        text = json.dumps(
+            {
+                "generator": GENERATOR,
+                "about": "the files motionlab data from-bvh wrote here; --force replaces these and only these",
+                "files": sorted(self.files),
+            },
+            indent=1,
+        )
+        write_text_atomic(self.out / MANIFEST, text + "\n")
+
+
+def _check_foreign_files(out: Path, paths: list[str], ours: set[str]) -> None:
+    """Refuse, before any work, a run that would overwrite a file in ``out`` that this command did not write."""
+    foreign = [p for p in dict.fromkeys(paths) if p not in ours and (out / p).exists()]
+    if foreign:
+        raise ValueError(
+            f"the output folder {out} holds {plural(len(foreign), 'file')} that the dataset would overwrite but "
+            f"that from-bvh did not write: {', '.join(foreign[:5])}{' ...' if len(foreign) > 5 else ''}; move "
+            f"{'it' if len(foreign) == 1 else 'them'} away (the files it wrote are listed in {out / MANIFEST})"
+        )
+
+
+def _remove_other_clips(out: Path, keep: set[str], manifest: _Manifest) -> None:
+    """Delete clip files of an earlier run whose take has gone (or now fails): the dataset mirrors the folder.
+    Only files the manifest lists are candidates."""
+    removed = False
+    for sub in CLIP_FOLDERS:
+        for path in sorted((out / sub).iterdir()):
+            relative = f"{sub}/{path.name}"
+            if path.stem not in keep and relative in manifest.files:
+                path.unlink()
+                manifest.discard(relative)
+                removed = True
+    if removed:
+        manifest.save()
 
 
 def _write_meta(out: Path, meta: dict) -> None:
@@ -346,7 +469,7 @@ def _assign_splits(ids: list[str], seed: int) -> tuple[dict[str, list[str]], lis
     if splits["val"]:
         return splits, []
     note = (
-        f"only {len(ids)} clip(s): val and test repeat the training clips, so scores on them are not "
+        f"only {plural(len(ids), 'clip')}: val and test repeat the training clips, so scores on them are not "
         "held-out scores; convert at least 3 takes"
     )
     return {"train": list(ids), "val": list(ids), "test": list(ids)}, [note]
@@ -371,7 +494,7 @@ def dataset_from_bvh(
     folder: str | os.PathLike,
     out: str | os.PathLike,
     captions: str | os.PathLike | None = None,
-    mapping: str | Mapping[str, str] = "cmu",
+    mapping: str | os.PathLike | Mapping[str, str] = AUTO,
     scale: float | None = None,
     up: str | None = None,
     seed: int = 0,
@@ -381,33 +504,51 @@ def dataset_from_bvh(
     """Convert the BVH takes in ``folder`` into a HumanML3D-layout dataset at ``out`` (see the module docstring).
 
     ``captions`` is a CSV (``take,caption[,start,end]``) or None for captions from the file names;
-    ``mapping``/``scale``/``up`` choose the rig as for :func:`motionlab.io.bvh_to_joints` (``"cmu"``,
-    ``"t2m"`` or a dict t2m joint -> BVH joint, which needs ``scale``); ``seed`` fixes the split. All
-    arguments and ``out`` are judged before any take is read. Returns a :class:`FromBvhReport`; raises
-    ``ValueError`` when no take could be converted.
+    ``mapping``/``scale``/``up`` choose the rig as for :func:`motionlab.io.bvh_to_joints` (``"auto"``: each
+    take's rig from its joint names; ``"cmu"``, ``"t2m"``, a dict t2m joint -> BVH joint, which needs ``scale``,
+    or a ``.json`` joint map); ``seed`` fixes the split. ``force`` converts into a non-empty ``out`` that is no
+    earlier from-bvh dataset, or rebuilds one from scratch; either way only files this command wrote are
+    replaced (its manifest). All arguments and ``out`` are judged before any take is read. Returns a
+    :class:`FromBvhReport`; raises ``ValueError`` when no take could be converted.
     """
     t0 = time.perf_counter()
     folder, out = Path(folder), Path(out)
     takes = list_takes(folder)
     table = read_captions_csv(captions) if captions is not None else None
-    rig = resolve_rig(mapping, scale, up)
+    auto = isinstance(mapping, str) and mapping.lower() == AUTO
+    check_scale_up(scale, up)
+    rig = None if auto else resolve_rig(mapping, scale, up)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
-    previous, replace = _prepare_out(out, folder, force)
+    previous, replace, ours = _prepare_out(out, folder, force)
+    plans = plan_clips(takes, table)[0]
+    _check_foreign_files(out, [*DATASET_FILES, *(f for plan in plans for f in _clip_paths(plan.clip_id))], ours)
+    request = _RigRequest(rig, scale, up)
     if not replace:
-        return _build(folder, out, takes, table, rig, int(seed), previous, progress, t0)
-    # built beside ``out`` and swapped in at the end: a run that fails, or is interrupted, leaves ``out`` as it was
+        return _build(folder, out, takes, table, request, int(seed), previous, ours, progress, t0)
+    # built beside ``out`` and moved in at the end: a run that fails, or is interrupted, leaves ``out`` as it was
     target = out.resolve()
     building = target.with_name(f".{target.name}.from-bvh-{os.getpid()}")
     shutil.rmtree(building, ignore_errors=True)
     try:
-        report = _build(folder, building, takes, table, rig, int(seed), None, progress, t0)
-        shutil.rmtree(target)
-        building.rename(target)
+        report = _build(folder, building, takes, table, request, int(seed), None, set(), progress, t0)
+        _move_in(building, target, ours)
     finally:
         shutil.rmtree(building, ignore_errors=True)
     report.out = out
     return report
+
+
+def _move_in(building: Path, target: Path, ours: set[str]) -> None:
+    """Replace the files this command wrote into ``target`` (``ours``) by the complete dataset in ``building``;
+    every other file in ``target`` stays."""
+    new = written_files(building)
+    for relative in sorted(ours - new):
+        (target / relative).unlink(missing_ok=True)
+    for relative in sorted(new - {MANIFEST}) + [MANIFEST]:  # the manifest last: it lists what is in place
+        destination = target / relative
+        destination.parent.mkdir(parents=True, exist_ok=True)
+        os.replace(building / relative, destination)
 
 
 def _build(
@@ -415,26 +556,22 @@ def _build(
     out: Path,
     takes: list[Path],
     table: Mapping[str, Mapping[tuple[int, int | None], list[str]]] | None,
-    rig: BvhRig,
+    request: _RigRequest,
     seed: int,
     previous: dict | None,
+    ours: set[str],
     progress: bool,
     t0: float,
 ) -> FromBvhReport:
-    """Convert into ``out``, resuming ``previous`` (an earlier run's meta) where given."""
+    """Convert into ``out``, resuming ``previous`` (an earlier run's meta) where given; ``ours``: the files an
+    earlier run wrote there."""
     existed, fresh = out.exists(), previous is None
 
     plans, skipped, notes = plan_clips(takes, table)
-    settings = {
-        "fps": FPS,
-        "rig": rig.name,
-        "joint_map": dict(rig.joint_map),
-        "scale": rig.scale,
-        "up": rig.up,
-        "version": VERSION,
-    }
+    settings = {"fps": FPS, **request.settings(), "version": VERSION}
     old_clips = previous["clips"] if previous is not None and previous.get("settings") == settings else {}
     make_layout(out)
+    manifest = _Manifest(out, ours | {"meta.json"})  # saved with the first file it adds
     # Clips of the earlier run stay listed until this run decides on them, so an interrupted run loses nothing.
     meta = {
         "generator": GENERATOR,
@@ -445,7 +582,7 @@ def _build(
     }
     report = FromBvhReport(out=out, skipped=skipped, notes=notes)
     show = _Progress(progress)
-    show.phase(f"{len(takes)} takes in {folder}, {len(plans)} clips to make, into {out}")
+    show.phase(f"{plural(len(takes), 'take')} in {folder}, {plural(len(plans), 'clip')} to make, into {out}")
 
     bar = show.bar(len(plans))
     for plan in plans:
@@ -455,23 +592,29 @@ def _build(
         old = old_clips.get(plan.clip_id, {})
         if {k: old.get(k) for k in source} == source and all(p.is_file() for p in clip_files(out, plan.clip_id)):
             report.reused[plan.clip_id] = old["frames"]  # captions may have changed: the texts are rewritten
+            if request.rig is None and "rig" in old:
+                report.rigs[plan.clip_id] = old["rig"]
             write_text_atomic(clip_files(out, plan.clip_id)[2], "".join(f"{line}\n" for line in lines))
         else:
             t = time.perf_counter()
             try:
-                features, joints = convert_clip(folder / plan.file, plan, rig)
+                converted = convert_clip(folder / plan.file, plan, request)
             except _Skip as why:
                 skipped[plan.label] = str(why)
             else:
+                features, joints, rig_name = converted
+                manifest.add(*_clip_paths(plan.clip_id))  # listed before written
                 write_clip(out, plan.clip_id, features, joints, lines)
                 report.converted[plan.clip_id] = len(features)
-                meta["clips"][plan.clip_id] = {**source, "frames": len(features)}
+                meta["clips"][plan.clip_id] = {**source, "frames": len(features), "rig": rig_name}
+                if request.rig is None:
+                    report.rigs[plan.clip_id] = rig_name
                 _write_meta(out, meta)  # after every clip: an interrupted run resumes from here
                 report.convert_seconds += time.perf_counter() - t
         bar.update()
     bar.close()
     show.phase(
-        f"converted {len(report.converted)} clips in {report.convert_seconds:.1f} s, reused "
+        f"converted {plural(len(report.converted), 'clip')} in {report.convert_seconds:.1f} s, reused "
         f"{len(report.reused)}, skipped {len(skipped)}"
     )
 
@@ -483,12 +626,17 @@ def _build(
                 out.mkdir()
         reasons = "; ".join(f"{name}: {why}" for name, why in list(skipped.items())[:5])
         more = f" (+{len(skipped) - 5} more)" if len(skipped) > 5 else ""
-        raise ValueError(f"none of the {len(takes)} takes in {folder} could be converted ({reasons}{more})")
+        if len(takes) == 1:
+            head = f"the only take in {folder} could not be converted"
+        else:
+            head = f"none of the {len(takes)} takes in {folder} could be converted"
+        raise ValueError(f"{head} ({reasons}{more})")
     meta["clips"] = {i: meta["clips"][i] for i in ids}
-    _remove_other_clips(out, set(ids))
+    _remove_other_clips(out, set(ids), manifest)
 
     splits, split_notes = _assign_splits(ids, int(seed))
     report.notes += split_notes
+    manifest.add(*DATASET_FILES)
     write_split_files(out, {**splits, "all": ids})
     Normalizer.fit([np.load(clip_files(out, i)[0]) for i in splits["train"]], T2M).save(out)
     report.splits = {name: len(v) for name, v in splits.items()}

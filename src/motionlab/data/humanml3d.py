@@ -104,6 +104,8 @@ def read_split_ids(root: str | os.PathLike, split: str) -> list[str]:
 def check_dataset(root: str | os.PathLike) -> list[str]:
     """Everything missing or malformed in a dataset folder, as human-readable lines (empty = fine)."""
     root = Path(root)
+    if not root.exists():
+        return [f"{root} does not exist"]
     if not root.is_dir():
         return [f"{root} is not a folder"]
     problems = [f"missing {name}" for name in ("new_joint_vecs", "texts") if not (root / name).is_dir()]

@@ -124,7 +124,13 @@ class EvaluationTable:
         interval = "± = 95% interval of the mean, Student's t with n − 1 degrees of freedom."
         return "\n".join(lines + [f"\n{note}" for note in [*self.notes, interval]])
 
+    def __str__(self) -> str:
+        """What ``print(table)`` shows: the :meth:`header` line, then the Markdown table (the dataclass's ``repr``
+        stays the full record)."""
+        return f"{self.header()}\n{self.to_markdown()}"
+
     def _repr_markdown_(self) -> str:
+        """Jupyter shows the table itself, rendered."""
         return self.to_markdown()
 
     # ------------------------------------------------------------------ what a chapter does with a table
@@ -306,7 +312,7 @@ def check_json_path(path: str | Path, force: bool = False) -> Path:
     if not path.parent.is_dir():
         raise ValueError(f"folder {str(path.parent)!r} of the JSON output does not exist")
     if path.exists() and not force:
-        raise ValueError(f"{path} exists; pass force=True (--force) to replace it")
+        raise ValueError(f"{path} exists; pass force=True to replace it")
     if path.is_dir():
         raise ValueError(f"{path} is a folder, not a file")
     return path

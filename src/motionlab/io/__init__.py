@@ -1,7 +1,8 @@
 """Motion files: BVH import/export and standalone HTML animations.
 
 * :mod:`.bvh` -- the BVH format itself: parse, forward kinematics, write.
-* :mod:`.bvh_import` -- a BVH (CMU by default) onto the 22 t2m joints and HumanML3D features.
+* :mod:`.bvh_import` -- a BVH (its rig detected from the joint names, or a joint map) onto the 22 t2m joints
+  and HumanML3D features.
 * :mod:`.bvh_export` -- t2m joints/features to a BVH rig whose rotations come from inverse kinematics.
 * :mod:`.html` -- one offline HTML page with a canvas stick figure.
 * :mod:`.files` -- choose by file extension (what the CLI calls).
@@ -12,7 +13,7 @@ created with funding from NSF EIA-0196217."
 """
 
 from .bvh import Bvh, BvhJoint, bvh_positions, bvh_world_transforms, format_bvh, parse_bvh, read_bvh, write_bvh
-from .bvh_export import motion_to_bvh, save_bvh
+from .bvh_export import helper_joints, motion_to_bvh, save_bvh
 from .bvh_import import (
     CMU_SCALE,
     CMU_TO_T2M,
@@ -20,8 +21,10 @@ from .bvh_import import (
     BvhRig,
     bvh_to_features,
     bvh_to_joints,
+    detect_rig,
     fill_degenerate_joints,
     map_joints,
+    read_joint_map,
     resample,
     resolve_rig,
 )
@@ -41,14 +44,17 @@ __all__ = [
     "bvh_to_joints",
     "bvh_world_transforms",
     "convert_motion",
+    "detect_rig",
     "fill_degenerate_joints",
     "format_bvh",
+    "helper_joints",
     "html_animation",
     "load_joints",
     "map_joints",
     "motion_to_bvh",
     "parse_bvh",
     "read_bvh",
+    "read_joint_map",
     "resample",
     "resolve_rig",
     "save_bvh",

@@ -22,6 +22,20 @@ zero-length helper joint ``<joint>_to_<child>`` (the way CMU's ``LHipJoint`` wor
   bone further along it, so viewers draw toes, a head and hands;
 * OFFSETs are the t2m target bone vectors (``T2M.offsets``: raw direction x target length), in ``unit``.
 
+**The helper joints**, for a retargeting tool (Blender, MotionBuilder, Rokoko, ...): the file has the 22 t2m
+joints under their t2m names plus six helpers (:func:`helper_joints`)::
+
+    pelvis_to_left_hip, pelvis_to_right_hip, pelvis_to_spine1          # children of pelvis
+    spine3_to_neck, spine3_to_left_collar, spine3_to_right_collar      # children of spine3
+
+Each sits at its parent's position (OFFSET 0 0 0: it draws no bone of its own) and carries the rotation of the
+bone from that parent to the t2m joint below it (``pelvis_to_left_hip``: pelvis -> left_hip), which the parent,
+having several bones to turn, cannot carry. A retargeting map names the 22 t2m joints and leaves the helpers
+out. A tool that matches bones by their world orientation needs nothing more; one that copies local rotations
+bone by bone must first fold each helper's rotation into the joint below it (the joint's world rotation is
+helper's times its own), as baking the imported skeleton's world transforms does.
+``motionlab convert`` and ``motionlab data from-bvh`` recognise the rig by these names (``--mapping auto``).
+
 Rotation channels are ``rotation_order`` (default ``"ZYX"``, written ``Zrotation Yrotation Xrotation``),
 intrinsic Euler angles in degrees; positions are in ``unit`` (default metres, Y-up, HumanML3D's axes).
 Because BVH offsets are fixed, a motion whose bone lengths differ from the target's comes back with the
@@ -103,6 +117,13 @@ def t2m_bvh_rig(skeleton: Skeleton = T2M, unit: str = "m", rotation_order: str =
 
     add(0, -1)
     return nodes
+
+
+def helper_joints(skeleton: Skeleton = T2M) -> tuple[str, ...]:
+    """The zero-length joints the exported rig adds (``<joint>_to_<child>``, one per bone leaving a joint with
+    several children), in file order."""
+    names = set(skeleton.joint_names)
+    return tuple(n.joint.name for n in t2m_bvh_rig(skeleton) if n.joint.name not in names and not n.joint.end_site)
 
 
 def _check_order(rotation_order: str) -> str:

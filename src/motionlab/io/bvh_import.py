@@ -12,8 +12,15 @@ The steps, each a function below::
 
 Conventions:
 
+* **Rigs.** ``mapping`` names the BVH joint that plays each of the 22 t2m joints. ``"auto"`` (the default)
+  picks the preset of :data:`RIGS` whose joint names the file has: ``"t2m"`` (the t2m names, as in the files
+  :func:`~motionlab.io.bvh_export.save_bvh` and ``motionlab generate ... --out x.bvh`` write) or ``"cmu"``. Any
+  other rig needs its own joint map: a dict, or a ``.json`` file (:func:`read_joint_map`) holding
+  ``{"pelvis": "Hips", "left_hip": "LeftUpLeg", ...}`` for all 22 t2m joints, or
+  ``{"joints": {...}, "scale": 0.01, "up": "y"}`` with its units and up axis.
 * **Units.** ``scale`` is metres per file unit. CMU's files use their own unit: ``CMU_SCALE = 0.056444``
-  (a standing root is then ~0.96 m high).
+  (a standing root is then ~0.96 m high). A file detected as ``"t2m"`` gets its unit from its bone offsets
+  (metres, centimetres or millimetres, as ``save_bvh(unit=...)`` writes them).
 * **Axes.** HumanML3D is Y-up and right-handed; ``up="y"`` (BVH's usual convention, CMU's too) keeps the
   axes, ``up="z"`` turns Z-up data by -90 degrees about X, ``(x, y, z) -> (x, z, -y)``. Both are proper
   rotations, so the subject's left stays left. The horizontal facing is left as in the file:
@@ -39,9 +46,11 @@ with funding from NSF EIA-0196217."
 
 from __future__ import annotations
 
+import json
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -98,6 +107,10 @@ RIGS: dict[str, BvhRig] = {
     # Files written by motionlab.io.bvh_export (unit="m"): joints carry the t2m names.
     "t2m": BvhRig("t2m", {n: n for n in T2M.joint_names}, 1.0, "y"),
 }
+
+AUTO = "auto"  # detect the rig from the BVH's joint names
+MAPPINGS = (AUTO, *RIGS)  # the names ``mapping`` takes (besides a dict or a .json file)
+FILE_UNITS = {1.0: "m", 0.01: "cm", 0.001: "mm"}  # metres per unit of the units an exported t2m BVH may use
 
 _Y_UP = {"y": np.eye(3), "z": np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])}
 DEGENERATE_TOLERANCE = 1e-4  # metres: closer than this to its parent in every frame = "the same point"
@@ -210,15 +223,124 @@ def _check_floor(joints_file_axes: np.ndarray, up: str, source: str) -> None:
     )
 
 
-def resolve_rig(mapping: str | Mapping[str, str] = "cmu", scale: float | None = None, up: str | None = None) -> BvhRig:
-    """A :class:`BvhRig` from a preset name (``"cmu"``, ``"t2m"``) or a t2m -> BVH name dict.
+def read_joint_map(path: str | os.PathLike) -> tuple[dict[str, str], float | None, str | None]:
+    """A user's joint map from a JSON file: ``(t2m joint -> BVH joint, scale or None, up or None)``.
 
-    ``scale``/``up`` override the preset's; a custom dict needs an explicit ``scale`` (units are not guessed).
+    The file holds either the map itself, ``{"pelvis": "Hips", "left_hip": "LeftUpLeg", ...}`` (all 22 t2m
+    joints), or ``{"joints": {...}, "scale": 0.01, "up": "y"}`` where ``scale`` (metres per file unit) and
+    ``up`` are optional. Problems raise ``ValueError`` naming the file.
     """
-    if isinstance(mapping, str):
-        if mapping.lower() not in RIGS:
-            raise ValueError(f"unknown BVH rig {mapping!r}; presets: {', '.join(RIGS)} (or pass a dict)")
-        rig = RIGS[mapping.lower()]
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"joint map {str(path)!r} does not exist")
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as err:
+        raise ValueError(f"joint map {path}: not readable as JSON ({err})") from None
+    if not isinstance(data, dict):
+        raise ValueError(f"joint map {path}: expected a JSON object of t2m joint name -> BVH joint name")
+    scale = up = None
+    if "joints" in data:
+        extra = sorted(set(data) - {"joints", "scale", "up"})
+        if extra:
+            raise ValueError(f"joint map {path}: unknown keys {', '.join(extra)} (expected joints, scale, up)")
+        scale, up, data = data.get("scale"), data.get("up"), data["joints"]
+        if scale is not None and (isinstance(scale, bool) or not isinstance(scale, (int, float))):
+            raise ValueError(f"joint map {path}: scale must be a number (metres per file unit), got {scale!r}")
+        if up is not None and not isinstance(up, str):
+            raise ValueError(f'joint map {path}: up must be "y" or "z", got {up!r}')
+    if not isinstance(data, dict) or not all(isinstance(v, str) for v in data.values()):
+        raise ValueError(f"joint map {path}: the joints must map t2m joint names to BVH joint names (strings)")
+    unknown = sorted(set(data) - set(T2M.joint_names))
+    missing = [n for n in T2M.joint_names if n not in data]
+    if unknown or missing:
+        problems = ([f"names joints t2m does not have: {', '.join(unknown)}"] if unknown else []) + (
+            [f"leaves these t2m joints unmapped: {', '.join(missing)}"] if missing else []
+        )
+        raise ValueError(
+            f"joint map {path} {'; '.join(problems)}. Its keys are the 22 t2m joints: {', '.join(T2M.joint_names)}"
+        )
+    return dict(data), (None if scale is None else float(scale)), up
+
+
+def _is_map_file(mapping) -> bool:
+    return isinstance(mapping, os.PathLike) or (isinstance(mapping, str) and mapping.lower().endswith(".json"))
+
+
+def _file_units(bvh: Bvh, joint_map: Mapping[str, str]) -> float:
+    """Metres per file unit of a BVH with t2m bones: its t2m bones' rest lengths against the t2m skeleton's,
+    snapped to metres, centimetres or millimetres when within 25% of one."""
+    names = bvh.names
+    lengths = np.linalg.norm(bvh.offsets, axis=-1)
+    ours = sum(lengths[names.index(joint_map[n])] for n in T2M.joint_names[1:])
+    if not ours > 0:
+        return 1.0
+    scale = float(np.linalg.norm(T2M.offsets[1:], axis=-1).sum() / ours)
+    near = min(FILE_UNITS, key=lambda unit: abs(np.log(scale / unit)))
+    return near if abs(np.log(scale / near)) < np.log(1.25) else scale
+
+
+def detect_rig(bvh: Bvh, source: str = "the BVH") -> BvhRig:
+    """The preset of :data:`RIGS` whose joint names ``bvh`` has (all 22 of its mapped joints).
+
+    A file with t2m names gets its unit from its bone offsets (:data:`FILE_UNITS`). A file that matches no
+    preset raises ``ValueError`` listing the joints it has, what the closest preset lacks, and how to give a
+    joint map (``--mapping FILE.json``).
+    """
+    have = set(bvh.names)
+    missing = {name: [b for b in rig.joint_map.values() if b not in have] for name, rig in RIGS.items()}
+    for name, rig in RIGS.items():
+        if not missing[name]:
+            return BvhRig(name, rig.joint_map, _file_units(bvh, rig.joint_map) if name == "t2m" else rig.scale, rig.up)
+    closest = min(RIGS, key=lambda name: len(missing[name]))
+    lacks = missing[closest]
+    joints = [j.name for j in bvh.joints if not j.end_site]
+    example = json.dumps({n: joints[0] if n == "pelvis" else "..." for n in T2M.joint_names[:3]})
+    raise ValueError(
+        f"{source}: its joint names match no rig motionlab knows ({', '.join(RIGS)}); the closest, {closest!r}, "
+        f"lacks {len(lacks)} of its 22 joints ({', '.join(lacks[:6])}{', ...' if len(lacks) > 6 else ''}). "
+        f"The BVH has {len(joints)} joints: {', '.join(joints)}. Give its joint map as --mapping FILE.json, "
+        f"a JSON object from each of the 22 t2m joints ({', '.join(T2M.joint_names)}) to one of these joints, "
+        f"e.g. {example[:-1]}, ...}}, with --scale (metres per file unit)"
+    )
+
+
+def resolve_rig(
+    mapping: str | os.PathLike | Mapping[str, str] = AUTO,
+    scale: float | None = None,
+    up: str | None = None,
+    bvh: Bvh | None = None,
+    source: str = "the BVH",
+) -> BvhRig:
+    """A :class:`BvhRig` from ``mapping``: ``"auto"`` (detected from ``bvh``'s joint names, :func:`detect_rig`),
+    a preset name (``"cmu"``, ``"t2m"``), a dict t2m -> BVH joint name, or a ``.json`` joint-map file
+    (:func:`read_joint_map`).
+
+    ``scale``/``up`` override the rig's (or the file's); a custom map needs a scale, from the file or ``scale``
+    (units are not guessed).
+    """
+    check_scale_up(scale, up)
+    if _is_map_file(mapping):
+        joints, file_scale, file_up = read_joint_map(mapping)
+        name = Path(mapping).name
+        if scale is None and file_scale is None:
+            raise ValueError(
+                f"the joint map {name} needs a scale (metres per file unit: 0.01 for centimetres, 1 for metres): "
+                'give --scale, or "scale" in the file beside "joints"'
+            )
+        rig = BvhRig(f"custom ({name})", joints, file_scale if file_scale is not None else 1.0, file_up or "y")
+    elif isinstance(mapping, str):
+        if mapping.lower() == AUTO:
+            if bvh is None:
+                raise ValueError("mapping 'auto' detects the rig from a BVH's joint names: it needs the BVH")
+            rig = detect_rig(bvh, source)
+        elif mapping.lower() in RIGS:
+            rig = RIGS[mapping.lower()]
+        else:
+            raise ValueError(
+                f"unknown BVH rig {mapping!r}; presets: {', '.join(MAPPINGS)}, or a .json joint map file "
+                "(in Python also a dict)"
+            )
     elif isinstance(mapping, Mapping):
         if scale is None:
             raise ValueError("a custom mapping needs scale= (metres per file unit; CMU uses 0.056444, cm files 0.01)")
@@ -226,17 +348,27 @@ def resolve_rig(mapping: str | Mapping[str, str] = "cmu", scale: float | None = 
     else:
         raise ValueError(f"mapping must be a preset name or a dict of t2m -> BVH joint names, got {type(mapping)}")
     scale = rig.scale if scale is None else float(scale)
-    if not (np.isfinite(scale) and scale > 0):
-        raise ValueError(f"scale (metres per file unit) must be positive, got {scale}")
     up = rig.up if up is None else str(up).lower().lstrip("+")
-    if up not in _Y_UP:
-        raise ValueError(f"up must be 'y' or 'z' (the file's up axis), got {up!r}")
+    check_scale_up(scale, up)
     return BvhRig(rig.name, rig.joint_map, scale, up)
+
+
+def check_scale_up(scale: float | None, up: str | None) -> None:
+    """Refuse a ``scale`` that is not a positive number and an ``up`` other than ``"y"``/``"z"`` (None: unset)."""
+    if scale is not None:
+        try:
+            value = float(scale)
+        except (TypeError, ValueError):
+            raise ValueError(f"scale (metres per file unit) must be a positive number, got {scale!r}") from None
+        if not (np.isfinite(value) and value > 0):
+            raise ValueError(f"scale (metres per file unit) must be positive, got {scale}")
+    if up is not None and str(up).lower().lstrip("+") not in _Y_UP:
+        raise ValueError(f"up must be 'y' or 'z' (the file's up axis), got {up!r}")
 
 
 def bvh_to_joints(
     bvh: Bvh | str | os.PathLike,
-    mapping: str | Mapping[str, str] = "cmu",
+    mapping: str | os.PathLike | Mapping[str, str] = AUTO,
     scale: float | None = None,
     up: str | None = None,
     fps: float = 20.0,
@@ -246,9 +378,11 @@ def bvh_to_joints(
 ) -> np.ndarray:
     """The 22 t2m joints ``(T, 22, 3)`` in metres, Y-up, at ``fps``, of a BVH (object or file path).
 
-    ``mapping`` is a preset of :data:`RIGS` (``"cmu"``: CMU names and units; ``"t2m"``: files written by
-    :func:`~motionlab.io.bvh_export.save_bvh`) or a dict t2m name -> BVH joint name; ``scale`` (metres per
-    file unit) and ``up`` (``"y"`` or ``"z"``) override the preset's. ``start``/``end`` crop frames at
+    ``mapping`` is ``"auto"`` (the rig detected from the joint names, :func:`detect_rig`), a preset of
+    :data:`RIGS` (``"cmu"``: CMU names and units; ``"t2m"``: files written by
+    :func:`~motionlab.io.bvh_export.save_bvh`), a dict t2m name -> BVH joint name, or a ``.json`` file holding
+    one (:func:`read_joint_map`); ``scale`` (metres per file unit) and ``up`` (``"y"`` or ``"z"``) override the
+    rig's. ``start``/``end`` crop frames at
     ``fps`` (``end=None``: to the last frame). The skeleton keeps the BVH's own proportions;
     :func:`bvh_to_features` retargets.
     """
@@ -256,7 +390,7 @@ def bvh_to_joints(
     if not isinstance(bvh, Bvh):
         source = os.path.basename(os.fspath(bvh))
         bvh = read_bvh(bvh)
-    rig = resolve_rig(mapping, scale, up)
+    rig = resolve_rig(mapping, scale, up, bvh, source)
     if not (np.isfinite(fps) and fps > 0):
         raise ValueError(f"fps must be positive, got {fps}")
     if not 0.0 < fill < 1.0:

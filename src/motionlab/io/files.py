@@ -3,7 +3,7 @@
 =========  ==================================================  =========================================
 suffix     written by :func:`save_motion`                      read by :func:`load_joints`
 =========  ==================================================  =========================================
-``.bvh``   t2m rig, rotations from inverse kinematics           any BVH through a rig ("cmu", "t2m", dict)
+``.bvh``   t2m rig, rotations from inverse kinematics           any BVH through a rig ("auto", "cmu", ...)
 ``.html``  standalone canvas animation (no network)           --
 ``.npy``   HumanML3D features ``(T-1, 263)``                   features ``(T, 263)`` or joints ``(T, 22, 3)``
 =========  ==================================================  =========================================
@@ -12,7 +12,7 @@ suffix     written by :func:`save_motion`                      read by :func:`lo
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +20,7 @@ import numpy as np
 from .bvh_export import save_bvh
 from .bvh_import import bvh_to_joints, fill_degenerate_joints
 from .common import as_joints, checked_features, save_npy_atomic, warn
-from .html import save_html_animation
+from .html import check_segments, save_html_animation
 from .provenance import write_sidecar
 
 MOTION_SUFFIXES = (".bvh", ".html", ".htm", ".npy")
@@ -42,6 +42,7 @@ def save_motion(
     unit: str = "m",
     rotation_order: str = "ZYX",
     provenance: Mapping[str, str] | None = None,
+    segments: Sequence[tuple[int, str]] | None = None,
 ) -> Path:
     """Write a motion (joints ``(T, 22, 3)`` in metres or features ``(T, 263)``) in the format of ``path``.
 
@@ -51,18 +52,25 @@ def save_motion(
     Every file is written through a temporary file and ``os.replace``. ``provenance`` (how the motion was made,
     :func:`~motionlab.io.provenance.motion_provenance`) goes into the HTML page, or into a sidecar
     ``<file>.json`` beside a ``.bvh``/``.npy`` (neither format has room for it that every reader skips).
+    ``segments=[(start_frame, text), ...]`` (a motion of several actions, the first at frame 0): the HTML player
+    names the action playing and marks each boundary; a ``.bvh``/``.npy`` gets them in its sidecar.
     """
     path = Path(path)
     suffix = _suffix(path, MOTION_SUFFIXES, "output")
+    if segments is not None:
+        segments = check_segments(segments, len(motion))  # before anything is written
     if suffix in (".html", ".htm"):
         title = path.stem if title is None else title
-        return save_html_animation(motion, path, title=title, fps=fps, provenance=provenance)
+        return save_html_animation(motion, path, title=title, fps=fps, provenance=provenance, segments=segments)
     if suffix == ".bvh":
         written = save_bvh(motion, path, fps=fps, unit=unit, rotation_order=rotation_order)
     else:
         written = save_npy_atomic(path, _as_features(motion))
-    if provenance:
-        write_sidecar(written, provenance)
+    if provenance or segments:
+        sidecar = dict(provenance or {})
+        if segments:
+            sidecar["segments"] = [{"start_frame": start, "text": text} for start, text in segments]
+        write_sidecar(written, sidecar)
     return written
 
 
@@ -78,14 +86,15 @@ def _as_features(motion) -> np.ndarray:
 
 def load_joints(
     path: str | os.PathLike,
-    mapping: str | Mapping[str, str] = "cmu",
+    mapping: str | os.PathLike | Mapping[str, str] = "auto",
     scale: float | None = None,
     up: str | None = None,
     fps: float = 20.0,
     start: int = 0,
     end: int | None = None,
 ) -> np.ndarray:
-    """Joint positions ``(T, 22, 3)`` in metres from a ``.bvh`` (through the rig ``mapping``) or ``.npy``.
+    """Joint positions ``(T, 22, 3)`` in metres from a ``.bvh`` (through the rig ``mapping``: by default the one
+    its joint names match) or ``.npy``.
 
     A ``.npy`` may hold features ``(T, 263)`` (recovered with ``recover_from_ric``) or joints
     ``(T, 22, 3)``; ``start``/``end`` crop its frames too. The BVH arguments are those of
@@ -129,7 +138,7 @@ def _crop(n: int, start: int, end: int | None) -> slice:
 def convert_motion(
     src: str | os.PathLike,
     dst: str | os.PathLike,
-    mapping: str | Mapping[str, str] = "cmu",
+    mapping: str | os.PathLike | Mapping[str, str] = "auto",
     scale: float | None = None,
     up: str | None = None,
     fps: float = 20.0,

@@ -8,14 +8,19 @@ and a few dozen lines of inline JavaScript draw them on a ``<canvas>`` with an o
     screen = (x1, dy cos(e) - z1 sin(e))  # tilt by the elevation e (looking slightly down)
 
 with ``d = p - centre``. Positions are stored in metres rounded to 0.1 mm, so a 200-frame clip is ~100 kB.
+
+A motion of several actions passes ``segments=[(start_frame, label), ...]``: the page then names the action that is
+playing above the figure and draws a timeline under it, one span per action, a line at each boundary and the current
+frame (:func:`check_segments` is the rule, shared with the book's player, :func:`motionlab.viz.animate_motions`).
 """
 
 from __future__ import annotations
 
 import html as html_lib
 import json
+import numbers
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +28,8 @@ import numpy as np
 from ..representation import Skeleton
 from .common import as_joints, write_text_atomic
 from .palette import CHAIN_COLORS
+
+SEGMENT_COLORS = ("#cfe3f5", "#f7d9a8", "#d5ecd4", "#fbe0e6", "#e8e0f0")  # one per action, in turn (light fills)
 
 _PAGE = """<!DOCTYPE html>
 <html lang="en">
@@ -39,11 +46,15 @@ _PAGE = """<!DOCTYPE html>
   .provenance { margin-top: 1em; font-size: 0.85em; color: #555; }
   .provenance dt { float: left; clear: left; width: 5em; font-weight: 600; }
   .provenance dd { margin-left: 5.5em; }
+  #segment { font-weight: 600; min-height: 1.3em; margin-bottom: 0.3em; max-width: 520px; }
+  #timeline { border: none; background: none; margin-top: 4px; }
 </style>
 </head>
 <body>
 <h1>__TITLE__</h1>
+<div id="segment"__SEGMENTED__></div>
 <canvas id="view" width="520" height="520"></canvas>
+<canvas id="timeline" width="520" height="18"__SEGMENTED__></canvas>
 <div class="controls">
   <button id="play" type="button">Pause</button>
   <input id="frame" type="range" min="0" max="0" value="0" aria-label="frame">
@@ -112,6 +123,23 @@ __PROVENANCE__<script type="application/json" id="motion-data">__DATA__</script>
     pts.forEach(function (p) { ctx.beginPath(); ctx.arc(p[0], p[1], 2.5, 0, 2 * Math.PI); ctx.fill(); });
     slider.value = String(current);
     label.textContent = "frame " + (current + 1) + " / " + n + "  (" + (current / fps).toFixed(2) + " s)";
+    if (data.segments) { drawSegments(); }
+  }
+
+  // The action playing now, and a timeline: one span per action, a line at each boundary, the current frame.
+  function drawSegments() {
+    var segs = data.segments, k = 0;
+    while (k + 1 < segs.length && segs[k + 1].start <= current) { k++; }
+    document.getElementById("segment").textContent = (k + 1) + "/" + segs.length + ": " + segs[k].label;
+    var line = document.getElementById("timeline"), tc = line.getContext("2d"), w = line.width, h = line.height;
+    var colors = data.segment_colors;
+    tc.clearRect(0, 0, w, h);
+    segs.forEach(function (seg, i) {
+      var a = w * seg.start / n, b = w * (i + 1 < segs.length ? segs[i + 1].start : n) / n;
+      tc.fillStyle = colors[i % colors.length]; tc.fillRect(a, 0, b - a, h);
+      if (i > 0) { tc.fillStyle = "#333"; tc.fillRect(a - 1, 0, 2, h); }
+    });
+    tc.fillStyle = "#d55e00"; tc.fillRect(w * current / n - 1.5, 0, 3, h);
   }
 
   function tick(now) {
@@ -162,17 +190,37 @@ def _provenance_html(provenance: Mapping[str, str] | None) -> str:
     return f'<dl class="provenance" id="provenance">\n{rows}</dl>\n'
 
 
+def check_segments(segments, n_frames: int) -> list[tuple[int, str]]:
+    """``segments`` as a list of ``(start_frame, label)``: starts are ints, the first 0, increasing, < ``n_frames``."""
+    if isinstance(segments, (str, bytes)) or not isinstance(segments, Sequence) or len(segments) == 0:
+        raise ValueError(f"segments must be a non-empty list of (start_frame, label), got {segments!r}")
+    out = []
+    for item in segments:
+        if not (isinstance(item, Sequence) and not isinstance(item, str) and len(item) == 2):
+            raise ValueError(f"each segment must be a (start_frame, label) pair, got {item!r}")
+        start, label = item
+        if not isinstance(start, numbers.Integral) or isinstance(start, bool) or not isinstance(label, str):
+            raise ValueError(f"each segment must be (int start_frame, str label), got {item!r}")
+        out.append((int(start), label))
+    starts = [s for s, _ in out]
+    if starts[0] != 0 or any(b <= a for a, b in zip(starts, starts[1:])) or starts[-1] >= n_frames:
+        raise ValueError(f"segment starts must begin at 0 and increase below {n_frames} frames, got {starts}")
+    return out
+
+
 def html_animation(
     joints,
     title: str = "motion",
     fps: float = 20.0,
     skeleton: str | Skeleton | None = None,
     provenance: Mapping[str, str] | None = None,
+    segments: Sequence[tuple[int, str]] | None = None,
 ) -> str:
     """The text of a standalone HTML page animating ``joints`` ``(T, J, 3)`` (or features ``(T, 263|251)``).
 
     ``provenance`` (e.g. :func:`motionlab.io.provenance.motion_provenance`) is shown under the animation and kept
-    in the page's JSON payload under ``"provenance"``.
+    in the page's JSON payload under ``"provenance"``. ``segments=[(start_frame, label), ...]`` (the first at 0)
+    names each action of a multi-action motion: the page shows the one playing and marks the boundaries.
     """
     positions, sk = as_joints(joints, skeleton, name="joints")
     if not isinstance(title, str):
@@ -191,10 +239,13 @@ def html_animation(
     }
     if provenance:
         payload["provenance"] = {str(k): str(v) for k, v in provenance.items()}
+    if segments is not None:
+        payload["segments"] = [{"start": a, "label": b} for a, b in check_segments(segments, len(metres))]
+        payload["segment_colors"] = list(SEGMENT_COLORS)
     # "<" never appears raw inside the <script> element, so no data can close it early.
     data = json.dumps(payload, separators=(",", ":")).replace("<", "\\u003c")
     # Data first, so a title that happens to contain "__DATA__" stays text.
-    page = _PAGE.replace("__DATA__", data)
+    page = _PAGE.replace("__SEGMENTED__", "" if segments is not None else " hidden").replace("__DATA__", data)
     return page.replace("__PROVENANCE__", _provenance_html(provenance)).replace("__TITLE__", html_lib.escape(title))
 
 
@@ -205,9 +256,10 @@ def save_html_animation(
     fps: float = 20.0,
     skeleton: str | Skeleton | None = None,
     provenance: Mapping[str, str] | None = None,
+    segments: Sequence[tuple[int, str]] | None = None,
 ) -> Path:
     """Write :func:`html_animation` to ``path`` (``.html``/``.htm``) atomically; returns the path."""
     path = Path(path)
     if path.suffix.lower() not in (".html", ".htm"):
         raise ValueError(f"path must end in .html or .htm, got {str(path)!r}")
-    return write_text_atomic(path, html_animation(joints, title, fps, skeleton, provenance))
+    return write_text_atomic(path, html_animation(joints, title, fps, skeleton, provenance, segments))

@@ -71,8 +71,9 @@ def sidecar_path(path: str | os.PathLike) -> Path:
     return path.with_name(path.name + ".json")
 
 
-def write_sidecar(path: str | os.PathLike, provenance: Mapping[str, str]) -> Path:
-    """Write ``provenance`` as JSON beside the motion file ``path`` (atomically); returns the sidecar's path."""
+def write_sidecar(path: str | os.PathLike, provenance: Mapping[str, object]) -> Path:
+    """Write ``provenance`` (strings, and the segments of a multi-action motion) as JSON beside the motion file
+    ``path`` (atomically); returns the sidecar's path."""
     return write_text_atomic(sidecar_path(path), json.dumps(dict(provenance), indent=1) + "\n")
 
 

@@ -12,6 +12,7 @@ clip      CLIP text tower from a local folder, frozen                  transform
 from __future__ import annotations
 
 from motionlab.text.base import EncoderUnavailableError, TextEncoder, TextFeatures, check_texts
+from motionlab.text.known import action_families, known_words, text_coverage, unknown_word_warnings
 from motionlab.text.pretrained import CLIPTextEncoder, MiniLMTextEncoder
 from motionlab.text.word import Vocabulary, WordTextEncoder, words
 
@@ -48,7 +49,11 @@ __all__ = [
     "TextFeatures",
     "Vocabulary",
     "WordTextEncoder",
+    "action_families",
     "check_texts",
     "get_text_encoder",
+    "known_words",
+    "text_coverage",
+    "unknown_word_warnings",
     "words",
 ]
