@@ -45,6 +45,7 @@ UPPER = {
     "cli",
     "__main__",
     "viz",
+    "try_it",
 }
 
 

@@ -21,41 +21,18 @@ import re
 import sys
 from pathlib import Path
 
+from motionlab.build import reading_time
 from motionlab.build.book_models import chapter_costs
 
 ROOT = Path(__file__).resolve().parent.parent
 HEADER = "| # | chapter | builds | needs | read (min) | cold / warm (min) |"
 _ROW = re.compile(r"^\| (\d\d|s\d) \| \[[^\]]*\]\(\.\./notebooks/(\w+)\.ipynb\) \|")
-PROSE_WORDS_PER_MIN = 200  # an ordinary reading pace for technical prose
-CODE_LINES_PER_MIN = 15  # code is read line by line, slower than prose
-# cells the rendered page folds or removes: a reader does not read them on the way through
-_FOLDED = {"hide-input", "remove-input", "hide-cell", "remove-cell", "parameters"}
-
-
-def reading_minutes(notebook: dict) -> float:
-    """Minutes to read a chapter: its prose at 200 words a minute plus the code it shows at 15 lines a minute.
-
-    ``notebook`` is the notebook's JSON. Code cells the page folds or removes do not count, nor do outputs,
-    figures or the library source a chapter shows with ``book.show_source``: a floor for a first reading.
-    """
-
-    def text(cell: dict) -> str:
-        source = cell.get("source", "")
-        return "".join(source) if isinstance(source, list) else source
-
-    words = lines = 0
-    for cell in notebook.get("cells", []):
-        if cell.get("cell_type") == "markdown":
-            words += len(text(cell).split())
-        elif cell.get("cell_type") == "code" and not _FOLDED & set(cell.get("metadata", {}).get("tags", [])):
-            lines += sum(1 for line in text(cell).splitlines() if line.strip() and not line.lstrip().startswith("#"))
-    return words / PROSE_WORDS_PER_MIN + lines / CODE_LINES_PER_MIN
 
 
 def load_reading(root: Path, chapters: list[str]) -> dict[str, float]:
-    """``{chapter: reading minutes}`` of the notebooks ``notebooks/<chapter>.ipynb`` under ``root``."""
-    folder = root / "notebooks"
-    return {c: reading_minutes(json.loads((folder / f"{c}.ipynb").read_text())) for c in chapters}
+    """``{chapter: reading minutes}`` of ``notebooks/<chapter>.ipynb`` under ``root``
+    (:mod:`motionlab.build.reading_time`: prose, shown code and figures)."""
+    return {chapter: time.minutes for chapter, time in reading_time.load_reading(root, chapters).items()}
 
 
 def load_costs(root: Path, profile: str) -> dict[str, tuple[float, float]]:

@@ -17,7 +17,11 @@ retyping it, so the text can never drift from the code that runs::
     book.show_source(motionlab.flow.euler_sample)
 
 Animations are embedded in the page as a JavaScript player (``book.embed_animation(anim)``); they play
-in the rendered site opened from disk, with no network.
+in the rendered site opened from disk, with no network. A "Try it" is ``book.try_it(draw, param=[values])``: the
+figures are computed when the chapter runs and the sliders choose among them in the browser, so they answer on the
+static site too (:mod:`motionlab.try_it`).
+
+A chapter ends with ``book.what_reproduces_here(prefix)``: the claims it tests, their verdicts and why.
 
 Exercises
 ---------
@@ -59,6 +63,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from motionlab.profiles import env_threads
+from motionlab.try_it import try_it  # noqa: F401 -- a chapter helper: book.try_it
 
 if TYPE_CHECKING:
     from motionlab.settings import RunSettings
@@ -217,43 +222,16 @@ def display_path(path: str | Path) -> str:
     return str(path)
 
 
-class FindingsBox:
-    """The box "What this chapter found" near a chapter's top: shown where :func:`findings_box` is called, filled by
-    :meth:`update` once the chapter has recorded its numbers (the executed notebook, and so the book, keep the
-    filled box in place)."""
+def what_reproduces_here(chapter: str, profile: str | None = None):
+    """The table that ends a chapter: each claim of the papers the chapter tests, and its own findings, with the
+    verdict and why, judged on the numbers the chapter recorded (call it after its last ``results.record``).
 
-    def __init__(self, chapter: str) -> None:
-        from motionlab.results import CHAPTERS
+    ``chapter`` is the chapter's results prefix (``"discord"``, ``"tps"``, ...); ``profile`` defaults to the run's
+    (what :func:`setup` resolved). Our numbers and the training runs each verdict reads are folded under each row;
+    *What reproduces* judges every claim of both papers.
+    """
+    from motionlab.results import CHAPTERS, chapter_findings
 
-        if chapter not in CHAPTERS:
-            raise ValueError(f"chapter must be a results prefix, one of {sorted(CHAPTERS)}; got {chapter!r}")
-        import uuid
-
-        from IPython.display import HTML, display
-
-        self.chapter = chapter
-        self.display_id = f"motionlab-findings-{chapter}-{uuid.uuid4().hex[:8]}"
-        display(
-            HTML(
-                '<div class="admonition note ml-findings"><p class="admonition-title">What this chapter found</p>'
-                "<p>Run the chapter to its end: this box then lists its findings, generated from the numbers "
-                "it records.</p></div>"
-            ),
-            display_id=self.display_id,
-        )
-
-    def update(self, profile: str | None = None):
-        """Judge the chapter's claims and findings on its recorded numbers and show them in the box; return them."""
-        from IPython.display import HTML, update_display
-
-        from motionlab.results import chapter_findings
-
-        findings = chapter_findings(self.chapter, profile)
-        update_display(HTML(findings._repr_html_()), display_id=self.display_id)
-        return findings
-
-
-def findings_box(chapter: str) -> FindingsBox:
-    """Show "What this chapter found" for ``chapter`` (a results prefix such as ``"discord"``) here; call
-    ``.update(profile)`` on the returned box after the chapter's last ``results.record``."""
-    return FindingsBox(chapter)
+    if chapter not in CHAPTERS:
+        raise ValueError(f"chapter must be a results prefix, one of {sorted(CHAPTERS)}; got {chapter!r}")
+    return chapter_findings(chapter, profile)

@@ -87,24 +87,18 @@ def test_display_path_hides_the_machines_folders(isolated_cache):
     assert book.display_path(Path.home() / "data" / "HumanML3D") == "~/data/HumanML3D"
 
 
-def test_findings_box_is_filled_in_place_from_the_recorded_numbers(isolated_cache, monkeypatch):
-    from IPython.core.interactiveshell import InteractiveShell
-
+def test_what_reproduces_here_judges_the_chapters_recorded_numbers(isolated_cache, monkeypatch):
     monkeypatch.delenv(results.RESULTS_ENV, raising=False)
-    published = []
-    shell = InteractiveShell.instance()
-    monkeypatch.setattr(shell.display_pub, "publish", lambda data, metadata=None, **kw: published.append((data, kw)))
-    box = book.findings_box("vq")
-    data, kw = published[-1]
-    assert "Run the chapter to its end" in data["text/html"]
+    empty = book.what_reproduces_here("vq", "smoke")
+    assert {row.verdict for row in empty.rows} == {results.MISSING}
     results.record("vq", "mpjpe_vq", 40.0, unit="mm", profile="smoke")
     results.record("vq", "mpjpe_rvq", 30.0, ci=1.0, unit="mm", profile="smoke")
-    found = box.update("smoke")
-    data, kw = published[-1]
-    assert (
-        kw.get("update")
-        and kw["transient"]["display_id"] == box.display_id == published[0][1]["transient"]["display_id"]
-    )
-    assert "30.0 ± 1.0 mm (residual VQ)" in data["text/html"] and found.rows[0].verdict == results.HOLDS
+    found = book.what_reproduces_here("vq", "smoke")
+    assert found.rows[0].verdict == results.HOLDS
+    html = found._repr_html_()
+    # claim, verdict and why on the page; our numbers folded under the row
+    assert html.index("<th>claim</th>") < html.index("<th>verdict</th>") < html.index("<th>why, as measured</th>")
+    assert html.index("<summary>our numbers</summary>") < html.index("30.0 ± 1.0 mm (residual VQ)")
+    assert "| claim | verdict | why, as measured |" in str(found)
     with pytest.raises(ValueError, match="results prefix"):
-        book.findings_box("chapter 2")
+        book.what_reproduces_here("chapter 2")

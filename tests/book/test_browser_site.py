@@ -72,7 +72,37 @@ function layout() {
   const shrunk = [...document.querySelectorAll('article .cell_output img')]
     .filter(i => i.clientWidth > 0 && i.naturalWidth > 1.1 * i.clientWidth)
     .map(i => Math.round(100 * i.clientWidth / i.naturalWidth) + '% of ' + i.naturalWidth + ' px');
-  return {wide: wide, shrunk: shrunk};
+  // anything else that scrolls sideways inside the article (display math, an admonition, a scrollable wrapper)
+  const scrolling = [...document.querySelectorAll('article *')]
+    .filter(e => ['auto', 'scroll'].includes(getComputedStyle(e).overflowX) && e.scrollWidth > e.clientWidth + 2)
+    .filter(e => !wide.length || !e.closest('div.cell'))
+    .map(e => e.tagName.toLowerCase() + '.' + [...e.classList].join('.') + ': ' + e.innerText.slice(0, 60));
+  return {wide: [...new Set([...wide, ...scrolling])], shrunk: shrunk};
+}
+function lesson() {
+  // where the first figure and the verdicts sit, which figures lack a caption, which exercises lack an answer
+  const top = e => e.getBoundingClientRect().top + window.scrollY;
+  const images = [...document.querySelectorAll('article .cell_output img, article figure img')]
+    .filter(i => !i.closest('.animation') && i.clientHeight > 0);
+  // a figure's caption is its <figcaption>; a "Try it" (book.try_it) carries its caption under its output
+  const captioned = i => (i.closest('figure') && i.closest('figure').querySelector('figcaption')) ||
+                         (i.closest('.ml-try-it') && i.closest('.ml-try-it').querySelector('.ml-caption'));
+  const uncaptioned = images.filter(i => !captioned(i))
+    .map(i => i.alt.slice(0, 40) || i.src.slice(-40));
+  const findings = document.querySelector('article .ml-findings');
+  const exercises = [...document.querySelectorAll('article .admonition')]
+    .filter(a => /^Exercise/.test((a.querySelector('.admonition-title') || {}).textContent || ''));
+  const unanswered = exercises.filter(a => {
+    for (let e = a.nextElementSibling; e; e = e.nextElementSibling) {
+      if (exercises.includes(e) || /^H[1-6]$/.test(e.tagName)) break;
+      const summary = e.querySelector('summary');
+      if (summary && summary.textContent.trim().startsWith('Answer')) return false;
+    }
+    return true;
+  }).map(a => a.querySelector('.admonition-title').textContent.slice(0, 50));
+  return {firstFigure: images.length ? Math.min(...images.map(top)) : null, figures: images.length,
+          uncaptioned: uncaptioned, findings: findings ? top(findings) : null, exercises: exercises.length,
+          unanswered: unanswered};
 }
 function poll() {
   const v = views(), m = math();
@@ -81,7 +111,7 @@ function poll() {
   const settled = v.every(x => x.drawn || x.error) && m.typeset === m.total && document.readyState === 'complete';
   if ((settled && mathReady) || Date.now() - start > 30000) {
     done({views: v, math: m, text: document.body.innerText, height: document.documentElement.scrollHeight,
-          layout: layout(),
+          layout: layout(), lesson: lesson(),
           resources: performance.getEntriesByType('resource').map(r => r.name)});
   } else {
     setTimeout(poll, 200);
@@ -169,6 +199,73 @@ def test_nothing_scrolls_sideways_and_figures_keep_their_size(reports):
     assert not wide, f"wider than the content column at 1300 px: {wide}"
     shrunk = {page: r["layout"]["shrunk"] for page, r in reports.items() if r["layout"]["shrunk"]}
     assert not shrunk, f"figures scaled down to fit the column (their labels shrink with them): {shrunk}"
+
+
+def chapters(reports: dict[str, dict]) -> dict[str, dict]:
+    """The teaching chapters 01-09, by page."""
+    return {page: r for page, r in reports.items() if re.match(r"notebooks/0\d_", page)}
+
+
+def test_a_chapter_opens_with_a_picture_and_ends_with_its_verdicts(reports):
+    pages = chapters(reports)
+    assert pages, "no chapter pages in the site"
+    late = {p: r["lesson"]["firstFigure"] for p, r in pages.items() if (r["lesson"]["firstFigure"] or 1e9) > 2000}
+    assert not late, f"chapters whose first figure starts below 2,000 px (px from the top): {late}"
+    early = {
+        p: f"{r['lesson']['findings'] / r['height']:.0%} of {r['height']} px"
+        for p, r in pages.items()
+        if r["lesson"]["findings"] is not None and r["lesson"]["findings"] < 0.6 * r["height"]
+    }
+    assert not early, f"chapters whose verdicts come before 60% of the page: {early}"
+
+
+def test_every_figure_has_a_caption(reports):
+    bare = {p: r["lesson"]["uncaptioned"] for p, r in chapters(reports).items() if r["lesson"]["uncaptioned"]}
+    assert not bare, f"figures without a caption: {bare}"
+
+
+def test_every_exercise_has_an_answer(reports):
+    assert sum(r["lesson"]["exercises"] for r in reports.values()) > 0, "no exercise found in the book"
+    open_ = {p: r["lesson"]["unanswered"] for p, r in reports.items() if r["lesson"]["unanswered"]}
+    assert not open_, f"exercises without a folded answer: {open_}"
+
+
+# Which "Try it" panels show what: the visible output of each, by position on the page.
+TRY_IT_STATE_JS = """
+return [...document.querySelectorAll('article .ml-try-it')].map(w => {
+  const shown = [...w.querySelectorAll('img, p, table')].filter(e => e.offsetParent !== null);
+  // a short fingerprint of what is visible: images of one size can share their last bytes, so hash them all
+  const text = shown.map(e => e.src || e.innerText).join('|');
+  let hash = 0;
+  for (let i = 0; i < text.length; i++) hash = (hash * 31 + text.charCodeAt(i)) | 0;
+  return text.length + ':' + hash;
+});
+"""
+TRY_IT_CHAPTERS = ("03", "05", "07", "08", "09")  # at least one "Try it" each that answers without a kernel
+
+
+def test_a_try_it_slider_changes_what_the_page_shows(site, browser):
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.common.keys import Keys
+
+    moved = {}
+    for page in book_pages(site):
+        name = str(page.relative_to(site))
+        if not re.match(rf"notebooks/({'|'.join(TRY_IT_CHAPTERS)})_", name):
+            continue
+        open_page(browser, page)
+        before = browser.execute_script(TRY_IT_STATE_JS)
+        handles = browser.find_elements(By.CSS_SELECTOR, "article .ml-try-it .noUi-handle")
+        for handle in handles:
+            browser.execute_script("arguments[0].scrollIntoView({block: 'center'})", handle)
+            handle.click()
+            handle.send_keys(Keys.ARROW_RIGHT)  # one step along the precomputed values
+        time.sleep(0.5)
+        after = browser.execute_script(TRY_IT_STATE_JS)
+        moved[name] = (len(handles), sum(a != b for a, b in zip(before, after)), len(before))
+    assert len(moved) == len(TRY_IT_CHAPTERS), f"chapters with a Try it: {sorted(moved)}"
+    frozen = {page: counts for page, counts in moved.items() if counts[1] == 0}
+    assert not frozen, f"pages where moving every slider changed no Try it (sliders, changed, widgets): {frozen}"
 
 
 def test_the_checks_see_a_planted_fault(browser, tmp_path):

@@ -119,18 +119,28 @@ def test_a_chapter_shows_its_imports(path):
 
 
 def visibility() -> dict[str, int]:
-    lines = {"shown": 0, "hidden": 0, "removed": 0}
+    """Lines of chapter code by what the page does with them; ``library`` counts the library source the chapters
+    show unfolded with ``book.show_source`` (code lines, as the reading time counts them)."""
+    from motionlab.build import reading_time
+
+    lines = {"shown": 0, "library": 0, "hidden": 0, "removed": 0}
     for path in CHAPTERS:
-        for _, source, tags in code_cells(path):
+        cells = code_cells(path)
+        imports = reading_time._Imports(source for _, source, _ in cells)
+        for _, source, tags in cells:
             kind = "removed" if tags & REMOVED else "hidden" if tags & HIDDEN else "shown"
             lines[kind] += len(source.splitlines())
+            if "show_source" in source and not tags & (REMOVED | reading_time.OUTPUT_FOLDED):
+                lines["library"] += reading_time.shown_source(source, imports).code_lines
     return lines
 
 
 def test_most_of_the_chapters_code_is_on_the_page():
     lines = visibility()
-    total = sum(lines.values())
+    on_page = lines["shown"] + lines["library"]
     # before the reporting layer moved into the library: 385 of 3,282 lines shown, 2,897 hidden or removed
     # issue 48: the studies left for their own pages, and at least half of what teaches stays in view
-    assert lines["shown"] >= 0.5 * total, lines
+    # issue 61: the method's core is shown from the library (show_source) and the plumbing folded: both count
+    assert on_page >= 0.5 * (on_page + lines["hidden"] + lines["removed"]), lines
     assert lines["hidden"] + lines["removed"] <= 2897 // 2, lines
+    assert lines["library"] >= 300, lines  # the chapters show the library's core code, not only calls into it

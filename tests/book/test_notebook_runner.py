@@ -109,7 +109,10 @@ def test_the_summary_chapter_runs_after_the_others():
     from motionlab.build.notebook_runner import runs_last
 
     notebooks = Path(__file__).resolve().parents[2] / "notebooks"
-    assert [p.stem for p in sorted(notebooks.glob("*.ipynb")) if runs_last(p)] == ["99_what_reproduces"]
+    assert [p.stem for p in sorted(notebooks.glob("*.ipynb")) if runs_last(p)] == [
+        "99_what_reproduces",
+        "s6_judging_verdicts",
+    ]
 
 
 def test_an_unchanged_chapter_is_kept_and_a_changed_one_executes_again(tmp_path):

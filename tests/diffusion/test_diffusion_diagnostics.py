@@ -198,6 +198,9 @@ def test_markdown_table_renders_header_rule_and_cells():
     table = MarkdownTable.of(["", "a", "b"], [["row", Estimate(1.0, 0.5, 3), "–"]])
     assert str(table).splitlines() == ["|  | a | b |", "|---|---:|---:|", "| row | 1.00 ± 0.50 | – |"]
     assert table._repr_markdown_() == str(table)
+    # a "|" inside a cell is escaped: each line keeps its three columns (the entropy table's "p(x0 | x_t)")
+    piped = MarkdownTable.of(["", "p(a | b)"], [["x | y", 1]])
+    assert [line.replace(r"\|", "").count("|") for line in str(piped).splitlines()] == [3, 3, 3]
 
 
 def test_entropy_table_reads_each_curve_at_one_step():

@@ -216,3 +216,39 @@ def test_grouped_sampling_keeps_every_row_its_own_length(setup, monkeypatch):
     )
     for row, n in zip(ids, lengths):
         assert (row[:n] >= 0).all() and (row[:n] < K).all() and (row[n:] == -1).all()
+
+
+def test_denoise_step_is_the_network_then_reverse_step(setup):
+    """The wrapper adds the network call (twice when guided), devices and padding; the step itself is reverse_step."""
+    from motionlab.diffusion.sampling import reverse_step
+
+    model, tr, text = setup
+    x = torch.full((3, 6), K)
+    x[1, :2] = torch.tensor([1, 5])
+    for kw in (dict(), dict(guidance_scale=3.0), dict(guidance_scale=2.0, guidance_on="posterior", top_p=0.8)):
+        for t, t_prev in ((T, T - 1), (T, 4), (6, 0)):
+            recording = Recording(model)
+            step = denoise_step(recording, tr, x, t, t_prev, text, generator=torch.Generator().manual_seed(1), **kw)
+            ((drop, out),) = recording.calls  # one network call: with and without the text in one batch
+            guided = kw.get("guidance_scale", 0.0) != 0.0
+            log_c, log_u = (out[:3], out[3:]) if guided else (out, None)
+            if guided:  # the second half of the batch runs without the text
+                assert drop[3:].all() and not drop[:3].any()
+            direct = reverse_step(tr, log_c, x, t, t_prev, torch.Generator().manual_seed(1), log_p_x0_null=log_u, **kw)
+            assert torch.equal(step, direct), (kw, t, t_prev)
+
+
+def test_reverse_step_to_zero_draws_from_the_prediction_itself(setup):
+    """At t_prev = 0 there is no posterior to mix: the draw is from p_θ(x_0 | x_t), so a certain prediction wins."""
+    from motionlab.diffusion.sampling import reverse_step
+
+    _, tr, _ = setup
+    x = torch.full((2, 5), K)
+    certain = torch.full((2, 5, K), -70.0)
+    certain[..., 3] = 0.0
+    assert (reverse_step(tr, certain, x, T, 0, torch.Generator().manual_seed(0)) == 3).all()
+    # one step earlier the posterior mostly keeps the mask (γ̄_{T-1} / γ̄_T = 0.9 here), and unmasks to the predicted code
+    many, masked = certain[:1].expand(100, 5, K), x[:1].expand(100, 5)
+    drawn = reverse_step(tr, many, masked, T, T - 1, torch.Generator().manual_seed(0))
+    counts = torch.bincount(drawn.flatten(), minlength=K + 1)
+    assert 0.8 < counts[K] / drawn.numel() < 0.97 and counts[:K].argmax() == 3

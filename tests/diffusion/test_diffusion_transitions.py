@@ -111,3 +111,16 @@ def test_bad_inputs():
     tr = build_transitions(s, num_codes=K)
     with pytest.raises(ValueError, match="0 <= s < t"):
         tr.interval(5, 5)
+
+
+def test_keep_and_mask_completes_a_replacement_block():
+    from motionlab.diffusion.transitions import keep_and_mask, uniform_matrix
+
+    schedule, K, t = get_schedule(T=20), 5, 7
+    block = torch.zeros(K + 1, K + 1, dtype=torch.float64)
+    block[:K, :K] = schedule.kbeta[t] / K
+    Q = keep_and_mask(block.clone(), schedule, t)
+    assert torch.equal(Q, uniform_matrix(schedule, t, K))
+    assert torch.allclose(Q.diagonal()[:K], schedule.alpha[t] + schedule.kbeta[t] / K)
+    assert torch.all(Q[:K, K] == schedule.gamma[t]) and Q[K].tolist() == [0.0] * K + [1.0]
+    assert torch.allclose(Q.sum(1), torch.ones(K + 1, dtype=torch.float64))

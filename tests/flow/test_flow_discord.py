@@ -91,6 +91,19 @@ def test_decode_equals_the_sampler_on_projected_conditions():
         torch.testing.assert_close(plain.decode(ids(), tokenizer=tok, steps=4, solver="midpoint", seed=3), expected)
 
 
+def test_sample_is_the_core_integrate_with_the_configs_defaults():
+    dec = decoder(dropout=0.5)
+    z = FakeTokenizer().embed(ids()).detach()
+    cfg = dec.config
+    dec.eval()  # what sample does around integrate
+    default = dec.integrate(z, torch.Generator().manual_seed(3), cfg.sample_steps, cfg.solver, cfg.temperature)
+    warm = dec.integrate(z, torch.Generator().manual_seed(3), 2, "midpoint", temperature=0.5)
+    dec.train()
+    torch.testing.assert_close(dec.sample(z, seed=3), default)
+    torch.testing.assert_close(dec.sample(z, steps=2, solver="midpoint", seed=3, temperature=0.5), warm)
+    assert dec.training and not torch.allclose(default, warm)
+
+
 # ----------------------------------------------------------------------------- parameterisation options
 
 

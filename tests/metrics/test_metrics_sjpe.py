@@ -200,3 +200,23 @@ def test_noise_sjpe_by_phase_sums_to_noise_and_finds_a_token_grid():
         noise_sjpe_by_phase(gt, gt, 0)
     with pytest.raises(ValueError, match="same number"):
         noise_sjpe_by_phase(gt, gt[:2], 4)
+
+
+def test_sjpe_elements_are_the_halves_one_clip_sums():
+    from motionlab.metrics.jerk import finite_difference_jerk
+    from motionlab.metrics.sjpe import SJPE_JOINTS, sjpe_elements
+
+    jp, jt = np.array([3.0, 1.0, 0.0, 2.0]), np.array([1.0, 1.0, 0.0, 6.0])
+    noise, static = sjpe_elements(jp, jt)
+    np.testing.assert_allclose(noise, [2 / (4 + 1e-6), 0.0, 0.0, 0.0])  # only where the prediction has more
+    np.testing.assert_allclose(static, [0.0, 0.0, 0.0, 4 / (8 + 1e-6)])  # only where it has less
+    assert (noise * static == 0).all()
+    # a clip's halves: the elements summed over jerk frames and the four joints, divided by T - 3
+    rng = np.random.default_rng(5)
+    gt, pred = wiggly(rng, 30), wiggly(rng, 30)
+    joints = list(SJPE_JOINTS["t2m"])
+    mags = [np.linalg.norm(finite_difference_jerk(x[:, joints], 20.0, axis=0), axis=-1) for x in (pred, gt)]
+    n, s = sjpe_elements(*mags)
+    out = sjpe(pred, gt)
+    assert out["noise"] == pytest.approx(n.sum() / 27, rel=1e-12)
+    assert out["static"] == pytest.approx(s.sum() / 27, rel=1e-12)

@@ -227,6 +227,7 @@ CHAPTER_MODELS: dict[str, tuple[str, ...]] = {
     "s3_retraining": (),
     "s4_bf16_vs_fp32": (),
     "s5_dead_codes": (),
+    "s6_judging_verdicts": (),  # judges the chapters' recorded numbers, trains nothing
 }
 
 

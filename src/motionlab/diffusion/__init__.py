@@ -37,7 +37,7 @@ from .posterior import (
     q_sample,
     safe_log,
 )
-from .sampling import classifier_free_guidance, denoise_step, sample, timestep_grid, truncate
+from .sampling import classifier_free_guidance, denoise_step, reverse_step, sample, timestep_grid, truncate
 from .schedule import (
     DEFAULT_SCHEDULE,
     DEFAULT_T,
@@ -72,6 +72,7 @@ from .transitions import (
     build_transitions,
     codebook_distance,
     dynamic_matrix,
+    keep_and_mask,
     uniform_matrix,
 )
 
@@ -95,12 +96,14 @@ __all__ = [
     "dynamic_matrix",
     "get_schedule",
     "gumbel_sample",
+    "keep_and_mask",
     "linear_schedule",
     "log_p_posterior",
     "log_q_posterior",
     "log_q_xt_given_x0",
     "q_sample",
     "relative_position_bucket",
+    "reverse_step",
     "safe_log",
     "sample",
     "sample_timesteps",

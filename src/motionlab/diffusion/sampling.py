@@ -1,6 +1,6 @@
 """Reverse-process samplers: ancestral (every step), fast (skipping steps), guidance and truncation.
 
-One step from t to s < t (:func:`denoise_step`):
+One step from t to s < t (:func:`denoise_step`: the network's prediction, then :func:`reverse_step`):
 
 1. log p_θ(x_0 | x_t) from the network, with classifier-free guidance (:func:`classifier_free_guidance`);
 2. truncate it to its most likely codes (top-p / top-k, :func:`truncate`), as VQ-Diffusion does;
@@ -158,6 +158,38 @@ def _check_denoise_step_inputs(transitions: Transitions, t: int, t_prev: int, gu
         raise ValueError(f"guidance_on must be one of {GUIDANCE_SPACES}, got {guidance_on!r}")
 
 
+def reverse_step(
+    transitions: Transitions,
+    log_p_x0: Tensor,
+    x_t: Tensor,
+    t: int,
+    t_prev: int,
+    generator: torch.Generator,
+    *,
+    log_p_x0_null: Tensor | None = None,
+    guidance_scale: float = 0.0,
+    guidance_on: str = "x0",
+    top_p: float | None = None,
+    top_k: int | None = None,
+) -> Tensor:
+    """Draw x_{t_prev} ~ p_θ(x_{t_prev} | x_t) from the network's log p_θ(x_0 | x_t): (B, L, K) -> (B, L) ids.
+
+    ``log_p_x0_null`` is the prediction without the text, p_θ(x_0 | x_t, ∅): given, it guides with ``guidance_scale``
+    (M2D2M Eq. 9), on p_θ(x_0 | x_t) or, with ``guidance_on="posterior"``, on p_θ(x_{t_prev} | x_t).
+    """
+    branches = [log_p_x0] if log_p_x0_null is None else [log_p_x0, log_p_x0_null]
+    if len(branches) == 2 and guidance_on == "x0":  # 1. guidance on the predicted x_0
+        branches = [classifier_free_guidance(log_p_x0, log_p_x0_null, guidance_scale)]
+    branches = [truncate(lp, top_p, top_k) for lp in branches]  # 2. keep the likeliest codes
+    if t_prev > 0:  # 3. p(x_s | x_t) = Σ_x0 q(x_s | x_t, x0) p(x0 | x_t), with q(x_t | x_s) = Q_{s+1}⋯Q_t
+        step = transitions.interval(t_prev, t).to(x_t.device)
+        cum_prev, cum_t = transitions.cumulative[t_prev].to(x_t.device), transitions.cumulative[t].to(x_t.device)
+        branches = [log_p_posterior(lp, x_t, step, cum_prev, cum_t) for lp in branches]
+    # (at t_prev = 0 the step is p(x0 | x_t) itself)
+    log_prev = branches[0] if len(branches) == 1 else classifier_free_guidance(*branches, guidance_scale)
+    return gumbel_sample(log_prev, generator)  # 4. draw
+
+
 @torch.no_grad()
 def denoise_step(
     model: nn.Module,
@@ -179,6 +211,7 @@ def denoise_step(
 ) -> Tensor:
     """One reverse jump x_t -> x_{t_prev} (0 <= t_prev < t <= T): (B, L) ids -> (B, L) ids.
 
+    The network's log p_θ(x_0 | x_t) (and, guided, its prediction without the text), then :func:`reverse_step`.
     Padded positions (``padding_mask`` True) stay masked. At ``t_prev = 0`` the result holds codes only. The inputs
     are moved to the model's device, where the step runs; the result is returned on ``x_t``'s device.
     """
@@ -192,16 +225,19 @@ def denoise_step(
     )
     guided = guidance_scale != 0.0
     log_c, log_u = _model_log_p_x0(model, x_t, t, text, guided, **kw)
-    if guided and guidance_on == "x0":
-        log_c, log_u = classifier_free_guidance(log_c, log_u, guidance_scale), None
-    branches = [truncate(lp, top_p, top_k) for lp in (log_c, log_u) if lp is not None]
-    if t_prev > 0:
-        dev = x_t.device
-        step = transitions.interval(t_prev, t).to(dev)
-        cum_prev, cum_t = transitions.cumulative[t_prev].to(dev), transitions.cumulative[t].to(dev)
-        branches = [log_p_posterior(lp, x_t, step, cum_prev, cum_t) for lp in branches]
-    log_prev = branches[0] if len(branches) == 1 else classifier_free_guidance(*branches, guidance_scale)
-    x_prev = gumbel_sample(log_prev, generator)
+    x_prev = reverse_step(
+        transitions,
+        log_c,
+        x_t,
+        t,
+        t_prev,
+        generator,
+        log_p_x0_null=log_u,
+        guidance_scale=guidance_scale,
+        guidance_on=guidance_on,
+        top_p=top_p,
+        top_k=top_k,
+    )
     if padding_mask is not None:
         x_prev = x_prev.masked_fill(padding_mask, transitions.mask_id)
     return x_prev.to(where)

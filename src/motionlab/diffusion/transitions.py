@@ -79,8 +79,8 @@ def uniform_matrix(schedule: Schedule, t: int, num_codes: int) -> torch.Tensor:
     """(K+1, K+1) float64 one-step matrix Q_t of VQ-Diffusion: B_t[i, j] = β_t = K·β_t / K."""
     K = num_codes
     Q = torch.zeros(K + 1, K + 1, dtype=torch.float64)
-    Q[:K, :K] = schedule.kbeta[t] / K
-    return _finish(Q, schedule, t)
+    Q[:K, :K] = schedule.kbeta[t] / K  # every code -> every code (itself included): β_t
+    return keep_and_mask(Q, schedule, t)
 
 
 def dynamic_matrix(schedule: Schedule, t: int, distance: torch.Tensor, eta: float) -> torch.Tensor:
@@ -94,16 +94,17 @@ def dynamic_matrix(schedule: Schedule, t: int, distance: torch.Tensor, eta: floa
     w = torch.exp(logits - logits.max(dim=1, keepdim=True).values)
     Q = torch.zeros(K + 1, K + 1, dtype=torch.float64)
     Q[:K, :K] = (schedule.kbeta[t] * w) / w.sum(dim=1, keepdim=True)
-    return _finish(Q, schedule, t)
+    return keep_and_mask(Q, schedule, t)
 
 
-def _finish(Q: torch.Tensor, schedule: Schedule, t: int) -> torch.Tensor:
-    """Add α_t on the code diagonal, γ_t into the mask column, and make the mask absorbing."""
+def keep_and_mask(Q: torch.Tensor, schedule: Schedule, t: int) -> torch.Tensor:
+    """Complete a (K+1, K+1) Q_t whose code block holds the replacement B_t: add α_t on the code diagonal, γ_t into
+    the mask column, and make the mask absorbing (in place; returns ``Q``)."""
     K = Q.shape[0] - 1
     idx = torch.arange(K)
-    Q[idx, idx] += schedule.alpha[t]
-    Q[:K, K] = schedule.gamma[t]
-    Q[K, K] = 1.0
+    Q[idx, idx] += schedule.alpha[t]  # a code keeps itself: α_t (+ its own share of the replacement)
+    Q[:K, K] = schedule.gamma[t]  # every code -> [MASK]: γ_t
+    Q[K, K] = 1.0  # [MASK] -> [MASK]: 1, the rest of its row 0 (absorbing)
     return Q
 
 

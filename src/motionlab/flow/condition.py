@@ -1,10 +1,10 @@
-"""Condition projection: from token code vectors ``(B, N, d)`` to frame-wise features ``(B, q·N, c)``.
+"""Condition projection: from token code vectors ``(B, N, d)`` to frame-wise features ``(B, q·N, d_feat)``.
 
 A token summarises ``q`` consecutive frames (q = 4, the tokenizer's temporal downsampling), so the
 decoder needs ``q`` *different* features per token, one per frame. DisCoRD's projection ("stacked"):
 
     z_n ∈ R^d  --repeat q times-->  (q, d)  --stack-->  R^{q·d}  --W ∈ R^{q·d × q·d}-->  R^{q·d}
-              --unstack-->  q frame vectors in R^d  --per-frame linear d → c-->  c_{qn}, …, c_{qn+q−1}
+              --unstack-->  q frame vectors in R^d  --per-frame linear d → d_feat-->  c_{qn}, …, c_{qn+q−1}
 
 Each slot of the projected vector has its own rows of ``W``, so the q frames of one token get different
 features, and no frame ever sees a neighbouring token (token ↔ frame correspondence is kept).
@@ -43,7 +43,7 @@ class _Projection(nn.Module):
 
 
 class StackedProjection(_Projection):
-    """DisCoRD: repeat each token q times, stack to q·d, linear q·d → q·d, unstack, linear d → c."""
+    """DisCoRD: repeat each token q times, stack to q·d, linear q·d → q·d, unstack, linear d → d_feat."""
 
     def __init__(self, code_dim: int, cond_dim: int, q: int = 4) -> None:
         super().__init__(code_dim, cond_dim, q)
@@ -56,22 +56,22 @@ class StackedProjection(_Projection):
         stacked = repeated.reshape(B, N, self.q * d)  # (B, N, q·d): the q copies of token n side by side
         projected = self.stacked(stacked)  # (B, N, q·d)
         frames = projected.reshape(B, N * self.q, d)  # (B, q·N, d): unstack into q frame vectors
-        return self.frame(frames)  # (B, q·N, c)
+        return self.frame(frames)  # (B, q·N, d_feat)
 
 
 class RepeatProjection(_Projection):
-    """Ablation: nearest upsampling (repeat) then a per-frame linear d → c; q identical features per token."""
+    """Ablation: nearest upsampling (repeat) then a per-frame linear d → d_feat; q identical features per token."""
 
     def __init__(self, code_dim: int, cond_dim: int, q: int = 4) -> None:
         super().__init__(code_dim, cond_dim, q)
         self.frame = nn.Linear(code_dim, cond_dim)
 
     def project(self, z: Tensor) -> Tensor:
-        return self.frame(z.repeat_interleave(self.q, dim=1))  # (B, q·N, c)
+        return self.frame(z.repeat_interleave(self.q, dim=1))  # (B, q·N, d_feat)
 
 
 class TransposedConvProjection(_Projection):
-    """Ablation: ``ConvTranspose1d(d → c, kernel q + 2p, stride q, padding p)`` with ``p = q // 2``.
+    """Ablation: ``ConvTranspose1d(d → d_feat, kernel q + 2p, stride q, padding p)`` with ``p = q // 2``.
 
     Output length ``(N − 1)·q − 2p + (q + 2p) = q·N``; each output frame sees one or two tokens.
     """
@@ -82,7 +82,7 @@ class TransposedConvProjection(_Projection):
         self.up = nn.ConvTranspose1d(code_dim, cond_dim, kernel_size=q + 2 * pad, stride=q, padding=pad)
 
     def project(self, z: Tensor) -> Tensor:
-        return self.up(z.transpose(1, 2)).transpose(1, 2)  # (B, d, N) -> (B, c, q·N) -> (B, q·N, c)
+        return self.up(z.transpose(1, 2)).transpose(1, 2)  # (B, d, N) -> (B, d_feat, q·N) -> (B, q·N, d_feat)
 
 
 _KINDS: dict[str, type[_Projection]] = {
@@ -103,12 +103,12 @@ def make_condition_projection(kind: str, code_dim: int, cond_dim: int, q: int = 
 
 
 def frames_per_token_distinct(features: Tensor, q: int, atol: float = 1e-6) -> Tensor:
-    """For frame features ``(B, q·N, c)``, whether the q frames of each token differ: ``(B, N)`` bool.
+    """For frame features ``(B, q·N, d_feat)``, whether the q frames of each token differ: ``(B, N)`` bool.
 
     A diagnostic for the "q distinct features" property (the chapter plots it; the tests assert it).
     """
-    B, T, c = features.shape
-    grouped = features.reshape(B, T // q, q, c)  # (B, N, q, c)
+    B, T, d_feat = features.shape
+    grouped = features.reshape(B, T // q, q, d_feat)  # (B, N, q, d_feat)
     spread = (grouped - grouped[:, :, :1]).abs().amax(dim=(2, 3))  # (B, N)
     return spread > atol
 
@@ -132,7 +132,7 @@ def token_influence(projection: nn.Module, n_tokens: int = 6, seed: int = 0, ato
     d = projection.code_dim
     base = torch.randn(1, n_tokens, d, generator=torch.Generator().manual_seed(seed))  # (1, N, d), drawn on the CPU
     base = base.to(next(projection.parameters()).device)  # the result lives on the projection's device
-    reference = projection(base)  # (1, q·N, c)
+    reference = projection(base)  # (1, q·N, d_feat)
     rows = []
     for n in range(n_tokens):
         bumped = base.clone()

@@ -17,7 +17,9 @@ loading them into a decoder configured otherwise raises instead of decoding garb
 
 from __future__ import annotations
 
+import contextlib
 import copy
+from collections.abc import Iterator
 from dataclasses import replace
 from typing import Any
 
@@ -26,7 +28,7 @@ from torch import Tensor, nn
 
 from motionlab.flow.condition import make_condition_projection
 from motionlab.flow.config import FEAT_BIAS, DisCoRDConfig, check_temperature, discord_config
-from motionlab.flow.rectified_flow import as_velocity_fn, flow_matching_loss, sample, sample_noise
+from motionlab.flow.rectified_flow import VelocityFn, as_velocity_fn, flow_matching_loss, sample, sample_noise
 from motionlab.flow.unet1d import UNet1D
 from motionlab.precision import in_precision, network_precision
 from motionlab.train import seeded
@@ -181,6 +183,9 @@ class DisCoRDDecoder(nn.Module):
         (default seed 0): the same seed gives the same motion. A seed's noise is drawn where the decoder lives (on a
         GPU, from a GPU generator: no host work per call), so a seed's motion on a GPU differs from the CPU's; a
         ``generator`` draws on its own device. The motion is returned on the decoder's device.
+
+        The algorithm is :meth:`integrate`; this wrapper fills in the defaults, checks the inputs, moves them to the
+        decoder, turns dropout off and runs the U-Net in the run's precision.
         """
         cfg = self.config
         steps = cfg.sample_steps if steps is None else steps
@@ -188,24 +193,44 @@ class DisCoRDDecoder(nn.Module):
         temperature = cfg.temperature if temperature is None else check_temperature(temperature)
         param = next(self.parameters())
         generator = _resolve_generator(generator, seed, param.device)
-        if not isinstance(code_vectors, Tensor) or code_vectors.dim() != 3 or code_vectors.shape[-1] != cfg.code_dim:
-            raise ValueError(f"code_vectors must have shape (B, N, {cfg.code_dim}), got {_shape(code_vectors)}")
-        B, N, _ = code_vectors.shape
+        self._check_code_vectors(code_vectors)
         code_vectors = code_vectors.to(device=param.device, dtype=param.dtype)
+        # the U-Net in the run's precision; the ODE state x stays fp32 between its evaluations
+        unet = in_precision(self.unet, network_precision(param.device), param.device)
+        with _evaluating(self):  # dropout off while sampling
+            return self.integrate(code_vectors, generator, steps, solver, temperature, unet=unet)
 
-        was_training = self.training
-        self.eval()  # dropout off while sampling
-        try:
-            cond = self.condition(code_vectors)  # (B, T, c): computed once, reused at every evaluation
-            x0 = temperature * sample_noise((B, N * cfg.q, cfg.feature_dim), generator, like=cond)  # (B, T, D)
-            # the U-Net in the run's precision; the ODE state x stays fp32 between its evaluations
-            unet = in_precision(self.unet, network_precision(param.device), param.device)
-            final_fn = unet if cfg.final_prediction else None
-            velocity = as_velocity_fn(unet, cfg.prediction)
-            x1 = sample(velocity, x0, steps, solver, cond, spacing=cfg.spacing, final_fn=final_fn)
-            return self.from_model_space(x1)
-        finally:
-            self.train(was_training)
+    @torch.no_grad()
+    def integrate(
+        self,
+        code_vectors: Tensor,
+        generator: torch.Generator,
+        steps: int,
+        solver: str,
+        temperature: float = 1.0,
+        unet: VelocityFn | None = None,
+    ) -> Tensor:
+        """DisCoRD's decoding, the algorithm alone: code vectors ``(B, N, d)`` -> motion ``(B, q·N, D)``.
+
+        Project the codes once to frame-wise conditions ``C``, draw ``x_0 = temperature · N(0, I)``, integrate
+        ``dx/dt = v_θ(x, t, C)`` from ``t = 0`` to ``1`` in ``steps`` intervals of ``solver``. ``unet`` defaults to
+        ``self.unet``; :meth:`sample` passes it wrapped in the run's precision, and calls this in eval mode.
+        """
+        cfg = self.config
+        unet = self.unet if unet is None else unet
+        cond = self.projection(code_vectors)  # (B, T, c): computed once, reused at every evaluation
+        B, N, _ = code_vectors.shape
+        x0 = temperature * sample_noise((B, N * cfg.q, cfg.feature_dim), generator, like=cond)  # (B, T, D)
+        velocity = as_velocity_fn(unet, cfg.prediction)  # "x": v = (x̂_1 − x_t) / (1 − t)
+        final_fn = unet if cfg.final_prediction else None  # "x" only: the last interval returns x̂_1 itself
+        x1 = sample(velocity, x0, steps, solver, cond, spacing=cfg.spacing, final_fn=final_fn)
+        return self.from_model_space(x1)  # back to the tokenizer's normalised features
+
+    def _check_code_vectors(self, code_vectors: Tensor) -> None:
+        """Reject code vectors that are not ``(B, N, d)`` with the config's ``d``."""
+        d = self.config.code_dim
+        if not isinstance(code_vectors, Tensor) or code_vectors.dim() != 3 or code_vectors.shape[-1] != d:
+            raise ValueError(f"code_vectors must have shape (B, N, {d}), got {_shape(code_vectors)}")
 
     def _check_decode_inputs(self, ids: Tensor, tokenizer: Any) -> None:
         """Reject a missing or mismatched tokenizer and ids that are not ``(B, N)`` / ``(B, N, R)`` integers."""
@@ -282,6 +307,17 @@ def discord_loss_fn(model: DisCoRDDecoder, batch: tuple[Tensor, Tensor], generat
     """
     motion, code_vectors = batch
     return {"loss": model.loss(motion, code_vectors, generator)}
+
+
+@contextlib.contextmanager
+def _evaluating(module: nn.Module) -> Iterator[None]:
+    """``module`` in eval mode (dropout off) inside the block, then back in the mode it was in."""
+    was_training = module.training
+    module.eval()
+    try:
+        yield
+    finally:
+        module.train(was_training)
 
 
 def _resolve_generator(

@@ -186,8 +186,10 @@ class UNet1D(nn.Module):
 
     def forward(self, x: Tensor, t: Tensor, cond: Tensor) -> Tensor:
         self._check(x, t, cond)
-        h = self.init_proj(torch.cat([x, cond], dim=-1).transpose(1, 2))  # (B, w, T)
-        r = h
+        # the condition enters once, at the input: concatenated to x_t frame by frame, then a 1×1 conv
+        h = self.init_proj(torch.cat([x, cond], dim=-1).transpose(1, 2))  # (B, T, D + c) -> (B, w, T)
+        r = h  # kept for the last block
+        # t enters every ResNet block: its embedding sets a per-channel scale and shift (ResnetBlock.forward)
         temb = self.time_mlp(t)  # (B, 4w)
 
         skips = []

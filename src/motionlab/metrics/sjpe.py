@@ -112,18 +112,30 @@ def _row_sums(values: np.ndarray) -> np.ndarray:
     return out
 
 
+def sjpe_elements(jerk_pred: np.ndarray, jerk_true: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """sJPE's two halves, element by element: ``(noise, static)`` for jerk magnitudes of any (equal) shape.
+
+    A clip's Noise sJPE is the sum of ``noise`` over its jerk frames and joints divided by the number of jerk
+    frames ``T − 3``; Static sJPE likewise. Each element lies in ``[0, 1)``, and at most one of the two is non-zero.
+    """
+    total = jerk_pred + jerk_true + EPS  # EPS keeps 0 / 0 at 0 where neither has jerk
+    noise = np.maximum(jerk_pred - jerk_true, 0.0) / total  # jerk the prediction adds: jitter
+    static = np.maximum(jerk_true - jerk_pred, 0.0) / total  # jerk the prediction misses: over-smoothing
+    return noise, static
+
+
 def _score(jp: np.ndarray, jg: np.ndarray, clip_id: np.ndarray, n_clips: int, variant: str):
     """Per-clip (noise, static) from jerk magnitudes ``(R, n)`` (non-negative) grouped by ``clip_id``."""
-    over = np.maximum(jp - jg, 0.0)  # (R, n): jerk the prediction adds
-    under = np.maximum(jg - jp, 0.0)  # (R, n): jerk the prediction misses
 
     def per_clip(values: np.ndarray) -> np.ndarray:  # (R, n) -> (n_clips,), summed over joints and time
         return np.bincount(clip_id, weights=_row_sums(values), minlength=n_clips)
 
     if variant == "element":
-        denom = jp + jg + EPS
+        noise, static = sjpe_elements(jp, jg)  # (R, n) each
         n_frames = np.bincount(clip_id, minlength=n_clips)  # T_i - 3
-        return per_clip(over / denom) / n_frames, per_clip(under / denom) / n_frames
+        return per_clip(noise) / n_frames, per_clip(static) / n_frames
+    over = np.maximum(jp - jg, 0.0)  # (R, n): jerk the prediction adds
+    under = np.maximum(jg - jp, 0.0)  # (R, n): jerk the prediction misses
     total = per_clip(jp + jg)
     with np.errstate(divide="ignore", invalid="ignore"):
         return per_clip(over) / total, per_clip(under) / total
@@ -284,7 +296,7 @@ def noise_sjpe_by_phase(pred_clips, gt_clips, period: int, skeleton: str = "t2m"
     rows_per_clip = pred.lengths - 3
     row_in_clip = np.arange(len(clip_id)) - np.repeat(np.cumsum(rows_per_clip) - rows_per_clip, rows_per_clip)
     phase = (row_in_clip + 2) % period
-    noise = _row_sums(np.maximum(jp - jg, 0.0) / (jp + jg + EPS))  # (R,): summed over the selected joints
+    noise = _row_sums(sjpe_elements(jp, jg)[0])  # (R,): summed over the selected joints
     n_clips = len(pred)
     out = np.zeros(period)
     for p in range(period):

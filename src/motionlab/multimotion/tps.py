@@ -243,16 +243,17 @@ def phase_grid(T: int, T_s: int, num_steps: int | None = None, timesteps: Sequen
 
 
 @dataclass
-class JointCondition:
-    """The joint phase's inputs on the canvas: texts side by side along S and who may see what."""
+class PhaseCondition:
+    """What one phase's network calls see: the text tokens (and their padding), the motion padding and who may
+    attend to which text (``cross_mask``, None: every motion token sees every text token)."""
 
-    text: Tensor  # (B, N_max·S, d)
-    text_padding_mask: Tensor  # (B, N_max·S), True at padding and absent segments
-    padding_mask: Tensor  # (B, L_c), True beyond each instance
-    cross_mask: Tensor | None  # (B, L_c, N_max·S) or None (every token sees every text)
+    text: Tensor  # (B, S', d): the joint phase lays an instance's N texts side by side, S' = N_max·S
+    text_padding_mask: Tensor  # (B, S'), True at padding (and at absent segments)
+    padding_mask: Tensor  # (B, L), True beyond each sequence's length
+    cross_mask: Tensor | None  # (B, L, S') or None
 
 
-def joint_condition(layout: SegmentLayout, tokens: Tensor, text_pad: Tensor, joint_text: str = "own") -> JointCondition:
+def joint_condition(layout: SegmentLayout, tokens: Tensor, text_pad: Tensor, joint_text: str = "own") -> PhaseCondition:
     """Lay each instance's segment texts side by side; with ``"own"`` each token sees only its own text."""
     if joint_text not in JOINT_TEXTS:
         raise ValueError(f"joint_text must be one of {JOINT_TEXTS}, got {joint_text!r}")
@@ -270,10 +271,50 @@ def joint_condition(layout: SegmentLayout, tokens: Tensor, text_pad: Tensor, joi
     assert m == M
     text, pad, seg = text.flatten(1, 2), pad.flatten(1, 2), seg.flatten(1, 2)  # (B, N_max·S, …)
     cross = segment_cross_mask(layout.canvas_segment_ids(dev), seg) if joint_text == "own" else None
-    return JointCondition(text, pad, layout.canvas_padding(dev), cross)
+    return PhaseCondition(text, pad, layout.canvas_padding(dev), cross)
 
 
 # ---------------------------------------------------------------------------------------------- sampler
+
+
+@torch.no_grad()
+def tps_loop(
+    model: nn.Module,
+    transitions: Transitions,
+    layout: SegmentLayout,
+    grid: Sequence[int],
+    T_s: int,
+    joint: PhaseCondition | None,
+    independent: PhaseCondition,
+    **sampling,
+) -> Tensor:
+    """Algorithm 1 on token ids: z_T (all [MASK]) -> z_0 of every action, (M, l_max) with [MASK] at padding.
+
+    ``grid`` descends from T to 0 with ``T_s`` on it; ``joint`` is the joint phase's condition (None when
+    ``T_s = T``), ``independent`` the per-action one; ``sampling`` goes to every :func:`denoise_step`.
+    """
+    jumps = list(zip(grid[:-1], grid[1:], strict=True))  # (t, s) pairs, T first
+    mask = transitions.mask_id
+
+    def step(z: Tensor, t: int, s: int, c: PhaseCondition) -> Tensor:  # one reverse jump z_t -> z_s
+        return denoise_step(
+            model, transitions, z, t, s, c.text, c.text_padding_mask,
+            padding_mask=c.padding_mask, cross_mask=c.cross_mask, **sampling,
+        )  # fmt: skip
+
+    # z_T: ONE all-[MASK] sequence per instance, its actions back to back (sum of l_i tokens)
+    z = torch.full((layout.n_instances, layout.canvas_length), mask, device=independent.text.device)
+    # joint phase, t = T ... T_s+1: tokens attend across the whole sequence, each to its own text
+    for t, s in jumps:
+        if t > T_s:
+            z = step(z, t, s, joint)
+    # split at the boundaries: one row per action, padded to the longest
+    z = layout.split(z, mask)
+    # independent phase, t = T_s ... 1: each action alone, with its own text y^i
+    for t, s in jumps:
+        if t <= T_s:
+            z = step(z, t, s, independent)
+    return z
 
 
 @torch.no_grad()
@@ -296,6 +337,9 @@ def two_phase_sample(
 ) -> MultiMotionTokens:
     """Algorithm 1: joint denoising for t > T_s, then per-segment denoising down to 0.
 
+    Checks the inputs, builds each phase's condition and runs :func:`tps_loop` on the model's device under the
+    run's autocast.
+
     Args:
         text: per-segment text features (M, S, d) + padding (M, S) (:func:`text_tensors`), instance by instance.
         segment_lengths: frames per action (multiples of 4), one list or a list of lists (a batch of instances).
@@ -311,39 +355,13 @@ def two_phase_sample(
     layout = segment_layout(segment_lengths)
     tokens, text_pad = text_tensors(text, layout.n_segments)
     grid = phase_grid(transitions.T, T_s, num_steps, timesteps)
-    dev, mask_id = model_device(model, tokens.device), transitions.mask_id  # generated where the model lives
+    dev = model_device(model, tokens.device)  # generated where the model lives
     tokens, text_pad = tokens.to(dev), text_pad.to(dev)
-    step_kw = dict(
+    independent = PhaseCondition(tokens, text_pad, layout.batch_padding(dev), None)  # (M, l_max): one row per action
+    joint = joint_condition(layout, tokens, text_pad, joint_text) if T_s < transitions.T else None
+    sampling = dict(
         generator=generator, guidance_scale=guidance_scale, guidance_on=guidance_on, top_p=top_p, top_k=top_k
     )
-    seg_padding = layout.batch_padding(dev)  # (M, l_max)
-    joint = joint_condition(layout, tokens, text_pad, joint_text) if T_s < transitions.T else None
-    on_canvas = joint is not None
-    x = torch.full(
-        (layout.n_instances, layout.canvas_length) if on_canvas else tuple(seg_padding.shape),
-        mask_id,
-        dtype=torch.long,
-        device=dev,
-    )
     with network_autocast(dev):  # posteriors stay fp32 (in_fp32); the network's weights are cast once
-        for t, t_prev in zip(grid[:-1], grid[1:], strict=True):
-            if t > T_s:  # joint: (B, L_c), all segments of an instance in one sequence
-                x = denoise_step(
-                    model,
-                    transitions,
-                    x,
-                    t,
-                    t_prev,
-                    joint.text,
-                    joint.text_padding_mask,
-                    padding_mask=joint.padding_mask,
-                    cross_mask=joint.cross_mask,
-                    **step_kw,
-                )
-                continue
-            if on_canvas:  # the switch: cut the canvas into one row per segment
-                x, on_canvas = layout.split(x, mask_id), False
-            x = denoise_step(model, transitions, x, t, t_prev, tokens, text_pad, padding_mask=seg_padding, **step_kw)
-    if on_canvas:  # T_s = 0: never left the canvas
-        x = layout.split(x, mask_id)
-    return MultiMotionTokens(x.masked_fill(seg_padding, pad_id), layout, pad_id)
+        z = tps_loop(model, transitions, layout, grid, T_s, joint, independent, **sampling)
+    return MultiMotionTokens(z.masked_fill(independent.padding_mask, pad_id), layout, pad_id)

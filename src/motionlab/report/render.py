@@ -376,13 +376,17 @@ def claims_table(
 class FindingRow:
     verdict: str
     statement: str
-    ours: str
+    ours: str  # our numbers as a phrase (this build's, with their intervals)
     source: str  # "DisCoRD, Table 1" for a paper's claim, "" for the chapter's own finding
+    mechanism: str = ""  # what the chapter measured about why, one line per piece of evidence ("" when none)
+    runs: str = ""  # what the verdict reads besides this build: training runs, test-clip draws ("" when nothing)
 
 
 @dataclass
 class ChapterFindings:
-    """What one chapter found, judged on its recorded numbers; renders as a box (HTML) in Jupyter and the book."""
+    """What one chapter found, judged on its recorded numbers: the table "What reproduces here" that ends a chapter
+    (HTML in Jupyter and the book, Markdown elsewhere). Claim, verdict and why on the page; our numbers and the runs
+    behind each verdict folded under each row."""
 
     chapter: str
     profile: str
@@ -391,36 +395,45 @@ class ChapterFindings:
     def counts(self) -> dict[str, int]:
         return {v: sum(row.verdict == v for row in self.rows) for v in VERDICTS}
 
-    def _repr_html_(self) -> str:
-        """A compact box: one line per finding (verdict, statement, source, our numbers), then where it comes from."""
-        esc = html.escape
-        items = []
-        for row in self.rows:
-            source = f' <span class="ml-source">({esc(row.source)})</span>' if row.source else ""
-            items.append(
-                f'<li style="margin:0.15em 0">{_verdict_html(row.verdict)}: {esc(row.statement)}{source} '
-                f'<span class="ml-ours" style="opacity:0.8">Ours: {esc(row.ours)}.</span></li>'
-            )
+    def summary(self) -> str:
         claims = sum(bool(row.source) for row in self.rows)
-        summary = count_sentence(self.counts(), "claims of the papers" if claims == len(self.rows) else "statements")
-        body = "\n".join(items) if items else "<li>This chapter recorded nothing yet.</li>"
+        return count_sentence(self.counts(), "claims of the papers" if claims == len(self.rows) else "statements")
+
+    def _repr_html_(self) -> str:
+        esc = html.escape
+        body = []
+        for row in self.rows:
+            source = f"<br><small>{esc(row.source)}</small>" if row.source else ""
+            why = esc(row.mechanism.splitlines()[0]) if row.mechanism else ""
+            detail = esc(row.ours + row.runs)
+            more = "".join(f"<br>{esc(line)}" for line in row.mechanism.splitlines()[1:])
+            body.append(
+                f"<tr><td>{esc(row.statement)}{source}</td><td>{_verdict_html(row.verdict)}</td>"
+                f'<td>{why}<details class="ml-ours"><summary>our numbers</summary>{detail}.{more}</details></td></tr>'
+            )
+        rows = "\n".join(body) if body else '<tr><td colspan="3">This chapter recorded nothing yet.</td></tr>'
         return (
-            f'<div class="admonition note ml-findings" style="border-left:4px solid #276be9;padding:0.2em 0.8em;'
-            f'font-size:0.9em;line-height:1.4">'
-            f'<p class="admonition-title" style="font-weight:bold">What this chapter found: {esc(summary)}</p>'
-            f'<ul style="margin:0.2em 0;padding-left:1.2em">{body}</ul>'
-            f'<p style="margin:0.2em 0 0.1em 0;opacity:0.8">Generated from the numbers this chapter recorded '
-            f"(profile <code>{esc(self.profile)}</code>); <i>What reproduces</i> judges every claim of both papers."
-            "</p></div>"
+            f'<div class="ml-findings"><table class="ml-claims-table ml-findings-table">'
+            f"<caption>{esc(self.summary())}</caption>"
+            "<thead><tr><th>claim</th><th>verdict</th><th>why, as measured</th></tr></thead>"
+            f"<tbody>{rows}</tbody></table></div>"
         )
 
     def _repr_markdown_(self) -> str:
-        lines = [f"**What this chapter found** (profile `{self.profile}`):", ""]
-        lines += [
-            f"- **{r.verdict}**: {r.statement}" + (f" ({r.source})" if r.source else "") + f" Ours: {r.ours}."
-            for r in self.rows
+        lines = [
+            f"**What reproduces here**: {self.summary()}",
+            "",
+            "| claim | verdict | why, as measured |",
+            "|---|---|---|",
         ]
+        for r in self.rows:
+            claim = r.statement + (f" ({r.source})" if r.source else "")
+            why = r.mechanism.splitlines()[0] if r.mechanism else f"ours: {r.ours}"
+            lines.append(f"| {claim} | **{r.verdict}** | {why} |".replace("\n", " "))
         return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self._repr_markdown_()
 
 
 def chapter_findings(
@@ -440,10 +453,21 @@ def chapter_findings(
     for claim in CLAIMS:
         if claim.keys[0].split("/", 1)[0] == chapter:
             row = judge(claim, recorded, spread)
-            rows.append(FindingRow(row.verdict, claim.statement, row.ours, f"{claim.paper}, {claim.source}"))
+            missing = bool(row.missing)
+            runs = "" if missing else retraining_phrase(claim.rule, recorded, spread)
+            rows.append(
+                FindingRow(
+                    row.verdict,
+                    claim.statement,
+                    claim.rule.sentence(recorded),
+                    f"{claim.paper}, {claim.source}",
+                    row.mechanism,
+                    runs,
+                )
+            )
     for finding in FINDINGS.get(chapter, ()):
         missing = any(k not in recorded for k in finding.keys)
         verdict = MISSING if missing else finding.rule.judge(recorded, spread)
-        ours = finding.rule.sentence(recorded) + ("" if missing else retraining_phrase(finding.rule, recorded, spread))
-        rows.append(FindingRow(verdict, finding.statement, ours, ""))
+        runs = "" if missing else retraining_phrase(finding.rule, recorded, spread)
+        rows.append(FindingRow(verdict, finding.statement, finding.rule.sentence(recorded), "", "", runs))
     return ChapterFindings(chapter, profile, rows)

@@ -25,8 +25,11 @@ class MarkdownTable(str):
         """``header`` and ``rows`` of cells (each ``str()``-ed; an :class:`~motionlab.estimate.Estimate` prints as
         ``mean ± half-width``); the first column is left-aligned, the others ``align``-ed."""
         rule = "---:" if align == "right" else "---"
-        lines = ["| " + " | ".join(header) + " |", "|---|" + f"{rule}|" * (len(header) - 1)]
-        lines += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+
+        def line(cells) -> str:  # a "|" inside a cell ("p(x0 | x_t)") would split it: escape it
+            return "| " + " | ".join(str(c).replace("|", r"\|") for c in cells) + " |"
+
+        lines = [line(header), "|---|" + f"{rule}|" * (len(header) - 1), *map(line, rows)]
         return cls("\n".join(lines))
 
     def _repr_markdown_(self) -> str:

@@ -88,7 +88,8 @@ def plot_trajectories(
     axes[1].set_ylabel("jerk (m/s³)")
     axes[1].set_xlabel("time (s)")
     axes[0].set_title(f"{sk.joint_names[joint]}", fontsize=10)
-    axes[0].legend(fontsize=8)
+    # beside the panel, never over the data (a joint's curves fill the panel's width)
+    axes[0].legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     return axes
 
 
@@ -136,7 +137,7 @@ def plot_history(
         ax.set_ylabel(ylabel)
         if key in log:
             ax.set_yscale("log")
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)  # beside, off the data
     return axes
 
 
