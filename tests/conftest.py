@@ -69,6 +69,14 @@ RUN_SETTINGS = (
 
 
 @pytest.fixture(autouse=True)
+def idle_machine(monkeypatch):
+    """Time estimates as on an idle machine: the plan line adds what the load seen now makes of an estimate
+    (:func:`motionlab.build.plan.load_slowdown`), and a test's text must not depend on what else the CI machine
+    runs. Tests of the load's effect set their own load average."""
+    monkeypatch.setattr(os, "getloadavg", lambda: (0.0, 0.0, 0.0))
+
+
+@pytest.fixture(autouse=True)
 def fp32_run_settings():
     """Unit tests run in fp32, whatever the CPU: the exactness checks against the official code are fp32 checks,
     and the bf16 path has tests of its own that ask for it. A test that applies run settings (every CLI call

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import os
 import shutil
 import signal
 import subprocess
@@ -14,7 +15,15 @@ from pathlib import Path
 
 import pytest
 
-from motionlab.build.plan import Job, check_plan, expected_wall_seconds, plan_line, results_table, run_plan
+from motionlab.build.plan import (
+    Job,
+    check_plan,
+    expected_wall_seconds,
+    load_slowdown,
+    plan_line,
+    results_table,
+    run_plan,
+)
 from motionlab.train.cache import NotCached, cache_probe, check_may_train
 
 
@@ -69,6 +78,16 @@ def test_plan_checks_and_estimates():
     alone = plan_line(jobs, 1)  # one worker: the wall time is the CPU time, said once
     assert alone.startswith("training 4 models first: about 3.3 min (") and alone.count("min") == 1
     assert plan_line([Job("a", print, is_cached=lambda: True)]) == ""
+
+
+def test_the_plan_line_says_what_the_load_seen_now_makes_of_the_estimate(monkeypatch):
+    jobs = [Job("x", print, estimate_s=120)]
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(os, "getloadavg", lambda: (5.0, 4.0, 3.0))  # five other processes want the two cores
+    assert load_slowdown(1) == (3.0, 5.0, 2)
+    assert "about 2.0 min, up to 6.0 min at this machine's load now (5.0 on 2 cores)" in plan_line(jobs, 1)
+    monkeypatch.setattr(os, "getloadavg", lambda: (0.5, 0.5, 0.5))  # room for the job: the idle estimate alone
+    assert "load" not in plan_line(jobs, 1) and load_slowdown(1)[0] == 1.0
 
 
 def test_cache_probe_refuses_to_train():

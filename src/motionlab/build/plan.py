@@ -95,6 +95,18 @@ def plan_line(jobs: Sequence[Job], workers: int = 1) -> str:
     return _describe(missing_jobs(jobs), workers)
 
 
+def load_slowdown(workers: int = 1) -> tuple[float, float, int]:
+    """How many times longer than on an idle machine ``workers`` one-thread processes take now, with the load and
+    the cores it is read from: the 1-minute load average's processes share the cores with them (1.0 where the load
+    cannot be read, or the cores are enough for all)."""
+    cores = os.cpu_count() or 1
+    try:
+        load = os.getloadavg()[0]
+    except (AttributeError, OSError):  # not on every platform
+        return 1.0, 0.0, cores
+    return max(1.0, (load + workers) / cores), load, cores
+
+
 def _describe(todo: Sequence[Job], workers: int) -> str:
     """The plan line for jobs already known to be missing (each cache check loads models: done once).
 
@@ -110,6 +122,9 @@ def _describe(todo: Sequence[Job], workers: int) -> str:
     when = f"about {format_minutes(wall)}"
     if workers > 1:
         when += f" with {workers} workers, {format_minutes(total)} of CPU"
+    slower, load, cores = load_slowdown(workers)
+    if slower >= 1.25:  # the estimate is for an idle machine: say what the load seen now makes of it
+        when += f", up to {format_minutes(wall * slower)} at this machine's load now ({load:.1f} on {cores} cores)"
     from ..precision import explain_precision
     from ..train.device import get_device
 
