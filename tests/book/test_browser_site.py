@@ -268,6 +268,18 @@ def test_a_try_it_slider_changes_what_the_page_shows(site, browser):
     assert not frozen, f"pages where moving every slider changed no Try it (sliders, changed, widgets): {frozen}"
 
 
+# A page's weight: its HTML with the players' frames and the "Try it" outputs inline (figures are separate files).
+# Measured on the laptop site at commit 070b657: at most 4.8 MB (09, its players and T_s × N_a Try it).
+PAGE_BUDGET_BYTES = 6_000_000
+
+
+def test_every_page_stays_within_its_size_budget(site):
+    heavy = {
+        str(p.relative_to(site)): p.stat().st_size for p in book_pages(site) if p.stat().st_size > PAGE_BUDGET_BYTES
+    }
+    assert not heavy, f"pages over {PAGE_BUDGET_BYTES:,} bytes: {heavy}"
+
+
 def test_the_checks_see_a_planted_fault(browser, tmp_path):
     """A page with a script error, a missing file and a request to the network: each check must report it."""
     page = tmp_path / "planted.html"
