@@ -17,26 +17,23 @@ import re
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
-from motionlab.profiles import get_profile
-
-from .budget import BudgetStudy, load_budget, scale_statement
+from .budget import BudgetStudy, scale_statement
 from .claims import CLAIMS
-from .gpu import GPURun, newest_gpu_run, table_e_results
+from .gpu import GPURun
 from .quantities import quantity
 from .render import (
     RECORDED,
     VERDICT_COLOURS,
     ClaimRow,
     ClaimsTable,
-    _study,
     claims_table,
     count_sentence,
-    retraining_phrase,
+    resolve_studies,
 )
 from .rules import Claim, describe_values
-from .scale import ScaleStudy, load_scale_study, study_scale
-from .spread import TrainingSpread, load_spread
-from .store import FAILS, HOLDS, INCONCLUSIVE, MISSING, VERDICTS, Result, load_all
+from .scale import ScaleStudy, study_scale
+from .spread import TrainingSpread
+from .store import FAILS, HOLDS, INCONCLUSIVE, MISSING, VERDICTS, Result
 
 # one CSS class per verdict (its colour is the claims table's); the site and Jupyter both read the <style> below
 VERDICT_CLASSES = {
@@ -321,14 +318,9 @@ def claims_overview(
 ) -> Overview:
     """The claims judged as :func:`~motionlab.report.render.claims_table` judges them (same arguments, same
     studies), laid out per paper for a first screen; ``.details()`` holds every row in full."""
-    profile = get_profile(profile)
-    recorded = load_all(profile) if recorded is None else recorded
-    spread = _study(spread, TrainingSpread, load_spread, profile, "spread")
-    budget = _study(budget, BudgetStudy, load_budget, profile, "budget")
-    scale = _study(scale, ScaleStudy, load_scale_study, profile, "scale")
-    gpu = _study(gpu, GPURun, newest_gpu_run, profile, "gpu")
-    table = claims_table(profile, recorded, claims, spread, budget, scale, gpu)
-    on_gpu = table_e_results(gpu) if gpu is not None else None
+    studies = resolve_studies(profile, recorded, spread, budget, scale, gpu)
+    profile, recorded, on_gpu = studies.profile, studies.recorded, studies.on_gpu
+    table = claims_table(profile, recorded, claims, studies.spread, studies.budget, studies.scale, studies.gpu)
     papers: dict[str, PaperOverview] = {}
     details = []
     for claim, row in zip(claims, table, strict=True):
@@ -339,11 +331,8 @@ def claims_overview(
                 row.chapter,
                 row.verdict,
                 why_line(claim, recorded),
-                scale_line(claim, profile, budget, scale, on_gpu),
+                scale_line(claim, profile, studies.budget, studies.scale, on_gpu),
             )
         )
-        measured = not row.missing
-        ours = claim.rule.sentence(recorded) if measured else row.ours
-        runs = retraining_phrase(claim.rule, recorded, spread).removeprefix("; ") if measured else ""
-        details.append(DetailRow(row, ours, runs))
+        details.append(DetailRow(row, row.numbers, row.runs.removeprefix("; ")))
     return Overview(list(papers.values()), table, details)

@@ -40,6 +40,8 @@ class ClaimRow:
     # the claim judged at other training budgets (report.budget) and multiples of the laptop's training samples
     # (report.scale), one line each; "" where neither was measured
     scale: str = ""
+    numbers: str = ""  # ``ours`` without the training runs: this build's numbers alone
+    runs: str = ""  # what the verdict reads besides this build (``retraining_phrase``); ``ours = numbers + runs``
 
 
 VERDICT_COLOURS = {HOLDS: "#1a7f37", FAILS: "#cf222e", INCONCLUSIVE: "#9a6700", MISSING: "#57606a"}
@@ -321,7 +323,8 @@ def judge(
     missing = tuple(k for k in claim.keys if k not in recorded)
     verdict = MISSING if missing else claim.rule.judge(recorded, spread)
     mechanism = "\n".join(e.format(recorded) for e in claim.mechanism)
-    ours = claim.rule.sentence(recorded) + ("" if missing else retraining_phrase(claim.rule, recorded, spread))
+    numbers = claim.rule.sentence(recorded)
+    runs = "" if missing else retraining_phrase(claim.rule, recorded, spread)
     return ClaimRow(
         claim.paper,
         claim.source,
@@ -329,11 +332,13 @@ def judge(
         claim.paper_value,
         claim.rule.describe(),
         claim.chapter,
-        ours,
+        numbers + runs,
         verdict,
         missing,
         mechanism,
         "\n".join(scale_lines),
+        numbers,
+        runs,
     )
 
 
@@ -360,16 +365,51 @@ def claims_table(
     verdicts at the budget study's training budgets where it was recorded (``budget=None``: without) and at the scale
     study's multiples of the laptop's training samples (``scale=None``: without), and Table E's speed claims on the
     newest GPU benchmark run in ``book/data/gpu`` (``gpu=None``: without)."""
+    studies = resolve_studies(profile, recorded, spread, budget, scale, gpu)
+    return ClaimsTable([judge(c, *studies.judged_with()) for c in claims], studies.profile)
+
+
+@dataclass(frozen=True)
+class Studies:
+    """What a claim is judged on: the numbers recorded for a profile and the studies recorded beside them (each None
+    where not recorded or not wanted)."""
+
+    profile: str
+    recorded: Mapping[str, Result]
+    spread: TrainingSpread | None
+    budget: BudgetStudy | None
+    scale: ScaleStudy | None
+    gpu: GPURun | None
+
+    @property
+    def on_gpu(self) -> Mapping[str, Result] | None:
+        """Table E's times as the GPU run measured them (:func:`motionlab.report.gpu.table_e_results`)."""
+        return table_e_results(self.gpu) if self.gpu is not None else None
+
+    def judged_with(self) -> tuple:
+        """:func:`judge`'s arguments after the claim."""
+        return self.recorded, self.spread, self.budget, self.scale, self.on_gpu
+
+
+def resolve_studies(
+    profile: str | None = None,
+    recorded: Mapping[str, Result] | None = None,
+    spread: TrainingSpread | str | None = RECORDED,
+    budget: BudgetStudy | str | None = RECORDED,
+    scale: ScaleStudy | str | None = RECORDED,
+    gpu: GPURun | str | None = RECORDED,
+) -> Studies:
+    """The profile validated, its recorded numbers (or ``recorded``), and each study: the one recorded for the
+    profile (:data:`RECORDED`), None, or the one given (:func:`claims_table` explains each)."""
     profile = get_profile(profile)
-    recorded = load_all(profile) if recorded is None else recorded
-    spread, budget = (
+    return Studies(
+        profile,
+        load_all(profile) if recorded is None else recorded,
         _study(spread, TrainingSpread, load_spread, profile, "spread"),
         _study(budget, BudgetStudy, load_budget, profile, "budget"),
+        _study(scale, ScaleStudy, load_scale_study, profile, "scale"),
+        _study(gpu, GPURun, newest_gpu_run, profile, "gpu"),
     )
-    scale = _study(scale, ScaleStudy, load_scale_study, profile, "scale")
-    gpu = _study(gpu, GPURun, newest_gpu_run, profile, "gpu")
-    on_gpu = table_e_results(gpu) if gpu is not None else None
-    return ClaimsTable([judge(c, recorded, spread, budget, scale, on_gpu) for c in claims], profile)
 
 
 @dataclass(frozen=True)
@@ -446,25 +486,14 @@ def chapter_findings(
     each judged as :func:`claims_table` judges it."""
     if chapter not in CHAPTERS:
         raise ValueError(f"unknown chapter prefix {chapter!r}; one of {sorted(CHAPTERS)}")
-    profile = get_profile(profile)
-    recorded = load_all(profile) if recorded is None else recorded
-    spread = _study(spread, TrainingSpread, load_spread, profile, "spread")
+    studies = resolve_studies(profile, recorded, spread, budget=None, scale=None, gpu=None)
+    profile, recorded, spread = studies.profile, studies.recorded, studies.spread
     rows = []
     for claim in CLAIMS:
         if claim.keys[0].split("/", 1)[0] == chapter:
             row = judge(claim, recorded, spread)
-            missing = bool(row.missing)
-            runs = "" if missing else retraining_phrase(claim.rule, recorded, spread)
-            rows.append(
-                FindingRow(
-                    row.verdict,
-                    claim.statement,
-                    claim.rule.sentence(recorded),
-                    f"{claim.paper}, {claim.source}",
-                    row.mechanism,
-                    runs,
-                )
-            )
+            source = f"{claim.paper}, {claim.source}"
+            rows.append(FindingRow(row.verdict, claim.statement, row.numbers, source, row.mechanism, row.runs))
     for finding in FINDINGS.get(chapter, ()):
         missing = any(k not in recorded for k in finding.keys)
         verdict = MISSING if missing else finding.rule.judge(recorded, spread)
