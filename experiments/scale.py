@@ -57,15 +57,17 @@ import json
 import signal
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import torch
 
 from motionlab.build.stamp import machine_stamp
 from motionlab.data.embedded.generator import VERSION
-from motionlab.evaluation.scale import GROUPS, MULTIPLES, point_changes, scaled_budgets
+from motionlab.evaluation.scale import GROUPS, MULTIPLES, scaled_budgets
 from motionlab.io.common import write_text_atomic
 from motionlab.paths import cache_dir
+from motionlab.report.scale import read_scale_records
 from motionlab.studies.carry import cached_progress, carried_folders, pack_cache, unpack_cache
 from motionlab.studies.scale import (
     Point,
@@ -114,20 +116,16 @@ def _gpu_run(path: Path | None):
 
 
 def _recorded(out: Path, profile: str) -> dict[str, dict]:
-    """The points recorded in ``out`` as the code would measure them now, by key (a stale one is measured again)."""
-    records = {}
-    for path in sorted(out.glob("*.json")) if out.is_dir() else ():
-        record = json.loads(path.read_text())
-        if record.get("study") != "scale" or record.get("profile") != profile:
-            continue
-        changes = point_changes(record, profile)
-        if changes:
-            _log(f"{path.name}: recorded with other configs ({', '.join(changes[:3])}): measuring it again")
-        elif changes is None:
-            _log(f"{path.name}: recorded without its configs: measuring it again")
-        else:
-            records[path.stem] = record
-    return records
+    """The points recorded in ``out`` as the code would measure them now, by key; the book's own reader decides which
+    are stale (:func:`motionlab.report.scale.read_scale_records`), and a stale one is measured again."""
+    if not out.is_dir():
+        return {}
+    with warnings.catch_warnings():  # a folder of stale points only means every point is measured again
+        warnings.simplefilter("ignore")
+        records, set_aside = read_scale_records(out, profile)
+    for line in set_aside:
+        _log(f"{line}: measuring it again")
+    return {Point(r["group"], float(r["multiple"])).key: r for r in records}
 
 
 def run_point(point: Point, profile: str, device: str, rates: Rates) -> dict:

@@ -378,7 +378,11 @@ def test_the_carried_cache_holds_what_pending_points_need_and_newest_checkpoints
     assert unpacked_work == ["config.json", "step_00000200"]  # the newest checkpoint and what it trains
     assert carry.unpack_cache(tmp_path / "nothing", fresh) == []
 
-    monkeypatch.setattr(carry, "PART_BYTES", 64)  # an archive too large for the files a lease returns
+    small = carry.pack_cache(cache, folders, tmp_path / "small", max_parts=99, part_bytes=64)[0]
+    assert len(small) > 1 and all(p.stat().st_size <= 64 for p in small)  # a job's own per-file output limit
+    with pytest.raises(ValueError, match="part_bytes"):
+        carry.pack_cache(cache, folders, out, part_bytes=0)
+    monkeypatch.setattr(carry, "PART_BYTES", 64)  # the default part: an archive too large for one output file
     parts, line = carry.pack_cache(cache, folders, out, max_parts=1)
     assert parts == [] and "not carried" in line and not list(out.iterdir())  # the old parts are gone too
     assert len(carry.pack_cache(cache, folders, out, max_parts=99)[0]) > 1  # cut into parts, joined on unpacking

@@ -391,6 +391,28 @@ def test_training_reduces_the_loss_and_is_cached(isolated_cache, tmp_path):
         text_to_motion_for_dataset(dataset, "smoke", config=config, eta=0.0, progress=False)
 
 
+def test_a_model_trained_as_cuda_graphs_has_its_own_cache_key(isolated_cache, tmp_path, monkeypatch):
+    """``--compile graphs`` pads every batch to one shape, so the model trains on other data: it must not be served
+    as (or resume from) the default model, and the default model's key must stay what it was."""
+    from motionlab.diffusion import pipeline
+
+    dataset = MotionDataset(write_embedded_dataset(tmp_path / "data", n_clips=42, progress=False, workers=1))
+    keys = []
+
+    def spy(name, config, build, train_fn, profile, *, extra, **kwargs):
+        keys.append(dict(extra))
+        raise RuntimeError("stop before training")
+
+    monkeypatch.setattr(pipeline, "train_or_load", spy)
+    for graphs in (False, True):
+        monkeypatch.setattr(pipeline, "uses_cuda_graphs", lambda part, device, graphs=graphs: graphs)
+        with pytest.raises(RuntimeError, match="stop before training"):
+            text_to_motion_for_dataset(dataset, "smoke", progress=False)
+    default, graphed = keys
+    assert "compile" not in default  # the key every cached default model was trained under
+    assert graphed == {**default, "compile": "graphs"}
+
+
 # ------------------------------------------------------------------------------------------ evaluation
 
 

@@ -46,6 +46,8 @@ from motionlab.profiles import get_profile
 from motionlab.representation import Normalizer
 from motionlab.text import TextEncoder, TextFeatures, check_texts
 from motionlab.train import load_result, train_or_load
+from motionlab.train.compiling import uses_cuda_graphs
+from motionlab.train.device import get_device
 
 MODEL_NAME = "text_to_motion"
 FRAMES_PER_TOKEN = 4
@@ -290,6 +292,8 @@ def text_to_motion_for_dataset(
     vocabulary = build_vocabulary(captions, config)
     transitions = make_transitions(config.transformer, tokenizer.codebook().cpu())
     extra = cache_extra(dataset, tokenizer, vocabulary)
+    if uses_cuda_graphs("denoiser", get_device(device)):  # graphs pad every batch to one shape: other training data
+        extra["compile"] = "graphs"  # only then, so that every other run keeps its cache key
 
     def build(cfg: DiffusionTrainingConfig) -> TextToMotionNetworks:
         return TextToMotionNetworks(cfg, vocabulary)

@@ -1,10 +1,11 @@
-"""Carry a study's trained models from one leased machine to the next, so that a point longer than one run resumes.
+"""Carry a study's trained models from one time-limited job to the next, so that a point longer than one job resumes.
 
-A leased GPU starts bare and runs one command for at most ten minutes; what comes back is a few files of at most
-16 MiB each. A scale-study point whose training outlasts one command would start from nothing on every lease and
-never finish. So a run packs the part of its model cache the remaining points need into an archive cut into parts
-(:func:`pack_cache`), the parts come back with the run's outputs, and the next lease carries them in and unpacks
-them (:func:`unpack_cache`) before it starts: a finished model is loaded instead of trained, and a model cut off
+A job on a shared GPU often runs under limits: a scheduler's wall time, a preemptible (spot) instance, a machine that
+starts bare and keeps nothing, and an output quota that returns files up to some size. A scale-study point whose
+training outlasts one job would start from nothing in every job and never finish. So a run packs the part of its
+model cache the remaining points need into an archive cut into parts no larger than the output limit
+(:func:`pack_cache`, ``part_bytes``), the parts come back with the job's outputs, and the next job carries them in and
+unpacks them (:func:`unpack_cache`) before it starts: a finished model is loaded instead of trained, and a model cut off
 mid-way resumes from its last checkpoint (the trainer's ``.work`` folder).
 
 What is carried (:func:`carried_folders`): every finished model whose config a pending point trains or loads (the
@@ -23,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 ARCHIVE = "scale-cache.tgz"  # its parts: scale-cache.tgz.00, .01, ...
-PART_BYTES = 15 * 2**20  # under the 16 MiB a leased machine returns per file
+PART_BYTES = 15 * 2**20  # the default part size: under a 16 MiB per-file output limit
 
 
 def config_key(config: Any) -> str:
@@ -97,11 +98,19 @@ def _newest_checkpoint(work: Path) -> Path | None:
 
 
 def pack_cache(
-    cache_root: str | Path, folders: Iterable[Path], out_dir: str | Path, max_parts: int = 4
+    cache_root: str | Path,
+    folders: Iterable[Path],
+    out_dir: str | Path,
+    max_parts: int = 4,
+    part_bytes: int | None = None,
 ) -> tuple[list[Path], str]:
     """Write ``folders`` (under ``cache_root``; of a ``.work`` folder only its newest checkpoint) to ``out_dir`` as
-    :data:`ARCHIVE` parts of at most :data:`PART_BYTES`, replacing any parts there. Returns the parts and one line
-    for the log; writes nothing (and says why) where the archive would need more than ``max_parts`` parts."""
+    :data:`ARCHIVE` parts of at most ``part_bytes`` (default :data:`PART_BYTES`), replacing any parts there. Returns
+    the parts and one line for the log; writes nothing (and says why) where the archive would need more than
+    ``max_parts`` parts."""
+    part_bytes = PART_BYTES if part_bytes is None else part_bytes
+    if isinstance(part_bytes, bool) or not isinstance(part_bytes, int) or part_bytes < 1:
+        raise ValueError(f"part_bytes must be a positive int, got {part_bytes!r}")
     cache_root, out_dir = Path(cache_root), Path(out_dir)
     folders = list(folders)
     for old in out_dir.glob(f"{ARCHIVE}.*"):
@@ -117,7 +126,7 @@ def pack_cache(
             for source in sources:
                 archive.add(source, arcname=str(source.relative_to(cache_root)))
     data = buffer.getvalue()
-    parts = -(-len(data) // PART_BYTES)
+    parts = -(-len(data) // part_bytes)
     mib = len(data) / 2**20
     if parts > max_parts:
         return [], f"not carried: {len(folders)} model folder(s) make {mib:.1f} MiB, over {max_parts} parts"
@@ -125,7 +134,7 @@ def pack_cache(
     written = []
     for k in range(parts):
         path = out_dir / f"{ARCHIVE}.{k:02d}"
-        path.write_bytes(data[k * PART_BYTES : (k + 1) * PART_BYTES])
+        path.write_bytes(data[k * part_bytes : (k + 1) * part_bytes])
         written.append(path)
     names = ", ".join(str(f.relative_to(cache_root / "models")) for f in folders)
     return written, f"carried {len(folders)} model folder(s) in {parts} part(s), {mib:.1f} MiB: {names}"

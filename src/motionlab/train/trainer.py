@@ -23,8 +23,8 @@ RNG (which ``nn.Dropout`` reads; a fresh run seeds it from ``config.seed``), so 
 go or N/2 + resume + N/2 produces the same bits. The learning rate is a pure function of the step
 (:mod:`.schedules`), so there is no scheduler state to lose.
 
-Ctrl-C (a SIGINT: a lease's ``timeout -s INT``, a notebook's interrupt) during :meth:`Trainer.fit` of a single
-process with a ``workdir`` lets the step under way finish, writes a checkpoint at that step and then raises
+Ctrl-C (a SIGINT: ``timeout -s INT`` at a job's time limit, a notebook's interrupt) during :meth:`Trainer.fit` of a
+single process with a ``workdir`` lets the step under way finish, writes a checkpoint at that step and then raises
 ``KeyboardInterrupt``, so the next run resumes where this one stopped instead of at the last periodic checkpoint.
 A SIGTERM (what a job scheduler sends before it preempts a job, or a machine's time limit) is deferred the same
 way; after the checkpoint the process's own SIGTERM handling takes over (by default the process ends, as it would
@@ -32,7 +32,7 @@ have a step earlier). A second signal of either kind acts at once.
 
 Each checkpoint also lists the model's *sittings* (:attr:`Trainer.sittings`): every :meth:`Trainer.fit` that
 trained it so far, with its steps, wall seconds and hardware. A model trained over several processes (resumed after
-a Ctrl-C, or lease after lease) thus keeps the time its whole training took, and where each part ran.
+a Ctrl-C, or job after job) thus keeps the time its whole training took, and where each part ran.
 
     trainer = Trainer(model, loss_fn, dataset.batches(64), TrainConfig(steps=2000), workdir=folder)
     history = trainer.fit()          # resumes from folder's latest checkpoint if there is one
