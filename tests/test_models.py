@@ -17,7 +17,7 @@ from motionlab.cli import _trained_model
 from motionlab.diffusion.training import PAPER_ETA
 from motionlab.models import book_dataset, projection_config
 from motionlab.multimotion import MULTI_MOTION_ETA
-from motionlab.sizes import DISCORD_ABLATION, DISCORD_VQ
+from motionlab.sizes import DISCORD_ABLATION, DISCORD_VQ, DISCORD_XPRED, XPRED_LEVERS
 from motionlab.train import cache
 
 # The functions models.load is built on, where models.py imports them from (at call time).
@@ -54,7 +54,10 @@ def _old_recipe(name: str, profile: str, seed: int, flow: dict | None) -> None:
     elif kind == "discord":
         tokens, _, projection = variant.partition("-")
         tokenizer = tokenizers.tokenizer_for_dataset(tokens, dataset, profile)
-        if projection:
+        if projection == "xpred":  # the laptop's former decoder, now a lever: its old key (tests/test_sizes.py)
+            levers = {**DISCORD_XPRED.get(profile, XPRED_LEVERS), **(flow or {})}
+            config = flows.discord_config(profile, tokenizer=tokenizer, seed=seed, **levers)
+        elif projection:
             config = projection_config(profile, tokenizer, projection, seed)
         else:  # discord/vq's laptop key changed on purpose: it trains its own, smaller decoder (sizes.DISCORD_VQ)
             budget = DISCORD_VQ.get(profile, {}) if tokens == "vq" else {}

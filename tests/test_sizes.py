@@ -5,7 +5,8 @@ size is a deliberate act that retrains those models for every reader (update the
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
+from types import SimpleNamespace
 
 import pytest
 
@@ -83,7 +84,7 @@ PINNED = {
     "laptop": {
         "vq": "6464ca563870",
         "rvq": "220e09b35557",
-        "discord": "2b665d595297",
+        "discord": "9aac8ed3f035",  # the paper's protocol since issue 62 (2b665d595297: the lever discord/rvq-xpred)
         "diffusion": "71c0bd368ad7",
         "evaluator": "f6a6687a85e4",
         "toy_flow": "ae0d2c8ebaba",
@@ -113,3 +114,17 @@ def _configs(profile: str) -> dict[str, object]:
 @pytest.mark.parametrize("profile", PROFILES)
 def test_model_configs_keep_their_cache_keys(profile):
     assert {name: config_hash(c) for name, c in _configs(profile).items()} == PINNED[profile]
+
+
+def test_the_x_prediction_lever_is_the_laptop_decoder_it_replaced():
+    """Until issue 62 the laptop's DisCoRD decoder predicted x from zero noise (key 2b665d595297); that decoder is now
+    the lever ``discord/rvq-xpred``, and it must keep the cache entry (and the measurements) it had."""
+    from motionlab.models import xpred_config
+
+    shape = SimpleNamespace(feature_dim=263, code_dim=64, downsample=4)
+    variant = xpred_config("laptop", shape)
+    assert config_hash(variant) == "2b665d595297"
+    paper = discord_config("laptop", tokenizer=shape)
+    assert (paper.prediction, paper.temperature, paper.sample_steps, paper.solver) == ("v", 1.0, 15, "midpoint")
+    differs = {f.name for f in fields(paper) if getattr(paper, f.name) != getattr(variant, f.name)}
+    assert differs == {"prediction", "temperature", "sample_steps"}  # the levers, and nothing else

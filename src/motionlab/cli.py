@@ -807,6 +807,12 @@ def _add_evaluate(sub) -> None:
         help="K: the book's tokenizer and DisCoRD decoder trained with seed K, a replicate of the chain (default: 0, "
         "the book's; another seed trains on first use)",
     )
+    rec.add_argument(
+        "--xpred",
+        action="store_true",
+        help="decode with the laptop's x-predicting variant of the book's decoder (it predicts the clean motion and "
+        "starts from zero noise; a lever, not the paper's decoder)",
+    )
     rec.add_argument("--limit", type=int, default=None, help="score only the first K clips of the split (default: all)")
     _add_flow_training_options(rec)
     rec.add_argument(
@@ -944,7 +950,8 @@ def _settings(args: argparse.Namespace):
     """The run's settings, resolved once from the options and the environment, and made the run's (exported, so
     that worker processes and chapter kernels inherit them); every command reads them from ``args.settings``."""
     from .precision import explain_precision
-    from .settings import MAX_THREADS, apply_settings, resolve_settings
+    from .profiles import env_threads
+    from .settings import MAX_THREADS, apply_settings, resolve_settings, threads_for_load
     from .train.device import get_device
 
     if args.threads is not None and not 1 <= args.threads <= MAX_THREADS:
@@ -953,8 +960,15 @@ def _settings(args: argparse.Namespace):
         if args.precision is None:
             raise ValueError("--force-precision insists on a --precision; give one")
         os.environ["MOTIONLAB_FORCE_PRECISION"] = "1"  # exported: workers and chapter kernels insist too
+    threads = args.threads if args.threads is not None else env_threads()
+    if threads is None and (threads := threads_for_load()) is not None:
+        print(
+            f"note: other programs are using the CPU (load {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores): "
+            f"{threads} torch thread{'s' * (threads > 1)}, which is faster then; --threads N chooses",
+            file=sys.stderr,
+        )
     settings = apply_settings(
-        resolve_settings(getattr(args, "profile", None), args.precision, args.threads, args.deterministic, args.compile)
+        resolve_settings(getattr(args, "profile", None), args.precision, threads, args.deterministic, args.compile)
     )
     explain_precision(settings.precision, get_device(getattr(args, "device", None)))  # refuses before any work
     return settings
@@ -969,8 +983,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--threads",
         type=int,
         default=None,
-        help="torch CPU threads (default: $MOTIONLAB_THREADS, else torch's choice); 1 is often "
-        "faster when other programs share the CPU",
+        help="torch CPU threads (default: $MOTIONLAB_THREADS, else torch's choice on an idle machine and the cores "
+        "other programs leave free, at least 1, on a busy one)",
     )
     parser.add_argument(
         "--precision",

@@ -18,6 +18,8 @@ name                            model
 ``discord/rvq``, ``/vq``        the profile's DisCoRD decoder on that tokenizer's ids (chapters 05, 09; the VQ one
                                 trains a smaller, narrower laptop decoder, ``sizes.DISCORD_VQ``)
 ``discord/rvq-<projection>``    chapter 04's ablation decoders: ``stacked``, ``repeat``, ``transposed``
+``discord/rvq-xpred``           the laptop's x-predicting variant of ``discord/rvq``: it predicts the clean motion
+                                and decodes from zero start noise (``sizes.DISCORD_XPRED``; a lever, not the paper)
 ``discord/<kind>-seed<k>``      the decoder trained with seed ``k`` on ``tokenizer/<kind>-seed<k>``: a replicate of
                                 the whole chain (the training-seed study, ``experiments/training_seeds.py``)
 ``t2m/dynamic``, ``/uniform``   the text-to-motion models with dynamic (paper η) and uniform (η = 0) transitions
@@ -71,10 +73,10 @@ def _discord(variant: str, dataset, profile: str, seed: int, device, overrides: 
 
     chain = _SEEDED.match(variant)
     tokens, _, projection = variant.partition("-")
-    if chain is None and (tokens != "rvq" or projection not in PROJECTIONS):
+    if chain is None and (tokens != "rvq" or projection not in (*PROJECTIONS, "xpred")):
         raise ValueError(
-            f"unknown DisCoRD decoder 'discord/{variant}'; use discord/rvq, discord/vq, discord/<kind>-seed<k> or "
-            f"discord/rvq-{{{','.join(PROJECTIONS)}}}"
+            f"unknown DisCoRD decoder 'discord/{variant}'; use discord/rvq, discord/vq, discord/<kind>-seed<k>, "
+            f"discord/rvq-xpred or discord/rvq-{{{','.join(PROJECTIONS)}}}"
         )
     chain_seed = int(chain.group(2) or 0) if chain else 0
     if chain_seed and seed:
@@ -82,7 +84,9 @@ def _discord(variant: str, dataset, profile: str, seed: int, device, overrides: 
     if chain:
         tokens, projection, seed = chain.group(1), "", chain_seed or seed
     tokenizer = _tokenizer(tokens, dataset, profile, device, chain_seed)
-    if projection:
+    if projection == "xpred":
+        config = xpred_config(profile, tokenizer, seed, **overrides)
+    elif projection:
         config = projection_config(profile, tokenizer, projection, seed, **overrides)
     else:  # the VQ tokens' decoder has its own, smaller laptop decoder (sizes.DISCORD_VQ says why)
         budget = DISCORD_VQ.get(profile, {}) if tokens == "vq" else {}
@@ -214,4 +218,14 @@ def projection_config(profile: str, tokenizer, projection: str = "stacked", seed
     return discord_config(profile, tokenizer=tokenizer, projection=projection, seed=seed, **{**budget, **overrides})
 
 
-__all__ = ["book_dataset", "compiled_part", "forget_book_datasets", "load", "projection_config"]
+def xpred_config(profile: str, tokenizer, seed: int = 0, **overrides):
+    """The DisCoRD config of ``discord/rvq-xpred``: chapter 05's decoder with the laptop's levers pulled (it predicts
+    the clean motion and decodes from zero start noise; ``DISCORD_XPRED`` in :mod:`motionlab.sizes` says why)."""
+    from motionlab.flow import discord_config
+    from motionlab.sizes import DISCORD_XPRED, XPRED_LEVERS
+
+    levers = DISCORD_XPRED.get(get_profile(profile), XPRED_LEVERS)
+    return discord_config(profile, tokenizer=tokenizer, seed=seed, **{**levers, **overrides})
+
+
+__all__ = ["book_dataset", "compiled_part", "forget_book_datasets", "load", "projection_config", "xpred_config"]

@@ -112,6 +112,7 @@ def test_the_summary_chapter_runs_after_the_others():
     assert [p.stem for p in sorted(notebooks.glob("*.ipynb")) if runs_last(p)] == [
         "99_what_reproduces",
         "s6_judging_verdicts",
+        "s7_departures",
     ]
 
 

@@ -428,7 +428,7 @@ def test_the_recorded_studies_measured_the_books_models_and_evaluations():
     assert spread is not None, "no training-seed study recorded for the laptop profile"
     assert not spread.set_aside, "\n".join(spread.set_aside)
     files = list((find_folder(FOLDER) / f"embedded-v{VERSION}").glob("*-laptop-*.json"))
-    assert len(spread.measured) == len(files) >= 15  # every recorded run joins
+    assert len(spread.measured) == len(files) >= 12  # every recorded run joins: three seeds of each study at least
     assert {line.split()[0] for line in spread.measured} == {"discord", "m2d2m", "transitions"}
 
 

@@ -130,6 +130,34 @@ def test_train_every_model_kind(tmp_path, isolated_cache, capsys):
     assert {"text_motion_evaluator", "discord", "rvq", "text_to_motion", "vq"} <= cached
 
 
+def test_a_busy_machine_gets_the_threads_its_other_programs_leave(monkeypatch, capsys):
+    """Without --threads or $MOTIONLAB_THREADS, a command on a busy CPU runs torch on the free cores (at least one)
+    and says so; on an idle one it keeps torch's choice and says nothing."""
+    import os
+
+    import torch
+
+    from motionlab.settings import threads_for_load
+
+    monkeypatch.delenv("MOTIONLAB_THREADS", raising=False)
+    monkeypatch.setattr(os, "cpu_count", lambda: 16)
+    for load, threads in ((0.0, None), (0.4, None), (4.0, 12), (15.5, 1), (40.0, 1)):
+        monkeypatch.setattr(os, "getloadavg", lambda load=load: (load, load, load))
+        assert threads_for_load() == threads, load
+    before = torch.get_num_threads()
+    try:
+        monkeypatch.setattr(os, "cpu_count", lambda: 2)
+        monkeypatch.setattr(os, "getloadavg", lambda: (3.9, 3.9, 3.9))
+        assert main(["data", "check", "/nonexistent/folder"]) == 1
+        assert torch.get_num_threads() == 1
+        assert "load 3.9 on 2 cores): 1 torch thread" in capsys.readouterr().err
+        torch.set_num_threads(2)
+        assert main(["--threads", "2", "data", "check", "/nonexistent/folder"]) == 1  # an explicit choice wins
+        assert torch.get_num_threads() == 2 and "torch thread" not in capsys.readouterr().err
+    finally:
+        torch.set_num_threads(before)
+
+
 def test_threads_option_sets_torch_threads(monkeypatch, capsys):
     import torch
 

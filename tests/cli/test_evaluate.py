@@ -329,6 +329,36 @@ def test_configs_validate_and_name_their_tokens():
         TextToMotionConfig(mm_repeats=5)
 
 
+def test_reconstruction_xpred_decodes_with_the_laptop_lever(monkeypatch):
+    """``xpred=True`` (``--xpred``) is chapter 05's x-prediction variant: its own book model, its own config (the
+    levers of sizes.DISCORD_XPRED on top of the paper's decoder), refused where no such decoder exists."""
+    from types import SimpleNamespace
+
+    from motionlab.evaluation import ReconstructionConfig
+    from motionlab.evaluation import reconstruction as recon
+
+    config = ReconstructionConfig(xpred=True, limit=8)
+    assert config.book_models() == ["tokenizer/rvq", "evaluator", "discord/rvq-xpred"]
+    assert "--xpred" in config.command_line("laptop").split()
+    for bad in (
+        dict(decoder="vq"),
+        dict(tokenizer="vq"),
+        dict(training_seed=1),
+        dict(decoder="discord:some/folder"),
+    ):
+        with pytest.raises(ValueError, match="xpred"):
+            ReconstructionConfig(xpred=True, **bad)
+    seen = []
+    monkeypatch.setattr("motionlab.flow.train_or_load_discord", lambda *a, config, **kw: seen.append(config))
+    shape = SimpleNamespace(feature_dim=263, code_dim=64, downsample=4)
+    dataset = SimpleNamespace(normalizer=None)
+    recon._book_decoder(config, dataset, shape, "laptop", None, False)
+    recon._book_decoder(ReconstructionConfig(), dataset, shape, "laptop", None, False)
+    lever, paper = seen
+    assert (lever.prediction, lever.temperature, lever.sample_steps) == ("x", 0.0, 8)
+    assert (paper.prediction, paper.temperature, paper.sample_steps) == ("v", 1.0, 15)
+
+
 def test_reconstruction_training_seed_names_the_replicate_chain():
     from motionlab.evaluation import ReconstructionConfig
 

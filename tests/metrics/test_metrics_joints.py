@@ -109,3 +109,44 @@ def test_sjpe_scored_block_by_block_equals_one_pass(pair, monkeypatch):
     for variant, result in sjpe_variants(p, g).items():
         for field in ("noise_per_clip", "static_per_clip", "jerk_pred_per_clip", "jerk_gt_per_clip"):
             np.testing.assert_array_equal(getattr(result, field), getattr(whole[variant], field))
+
+
+def _walk(metres: float, frames: int = 40) -> np.ndarray:
+    """A 22-joint rig whose root moves ``metres`` along x (and bobs up and down, which is not travel)."""
+    t = np.linspace(0.0, 1.0, frames)
+    clip = np.zeros((frames, 22, 3))
+    clip[:, :, 0] = metres * t[:, None]
+    clip[:, :, 1] = 0.9 + 0.05 * np.sin(12 * t)[:, None]
+    return clip
+
+
+def test_root_travel_is_the_net_distance_on_the_ground():
+    joints = ClipJoints.from_joints([_walk(3.0), _walk(0.0), _walk(-1.5, 10)])
+    np.testing.assert_allclose(joints.root_travel(), [3.0, 0.0, 1.5], atol=1e-12)
+
+
+def test_a_reconstruction_that_loses_a_walks_travel_is_named():
+    from motionlab.evaluation.reconstruction import warn_lost_travel
+
+    truth = ClipJoints.from_joints([_walk(3.27), _walk(0.2), _walk(2.0)])
+    decoded = ClipJoints.from_joints([_walk(0.12), _walk(0.0), _walk(1.9)])  # the first walk decoded on the spot
+    with pytest.warns(UserWarning, match=r"1 of 3 clips lose most of their travel .*clip 0: 3\.27 m -> 0\.12 m"):
+        assert warn_lost_travel(truth, decoded) == [0]  # the 0.2 m shuffle is not travel to lose
+
+
+def test_kept_travel_is_not_warned_about(recwarn):
+    from motionlab.evaluation.reconstruction import warn_lost_travel
+
+    truth = ClipJoints.from_joints([_walk(3.0), _walk(1.0)])
+    assert warn_lost_travel(truth, ClipJoints.from_joints([_walk(2.5), _walk(0.6)])) == []
+    assert not [w for w in recwarn if "travel" in str(w.message)]
+
+
+def test_one_lost_walk_among_many_is_no_pattern(recwarn):
+    """A dataset whose tokenizer keeps the travel of most walks is not warned about for one of them."""
+    from motionlab.evaluation.reconstruction import warn_lost_travel
+
+    truth = ClipJoints.from_joints([_walk(2.0)] * 5)
+    decoded = ClipJoints.from_joints([_walk(0.1)] + [_walk(1.9)] * 4)
+    assert warn_lost_travel(truth, decoded) == [0]
+    assert not [w for w in recwarn if "travel" in str(w.message)]

@@ -11,6 +11,7 @@ import pytest
 from motionlab.flow import discord_config
 from motionlab.flow.training import noise_floor
 from motionlab.metrics import mean_ci
+from motionlab.models import xpred_config
 from motionlab.studies.sweep import (
     FEED_FORWARD,
     GROUND_TRUTH,
@@ -156,7 +157,7 @@ def test_the_setting_a_config_samples_and_trains_with(sweep_folder):
     assert sampling_of(discord_config("smoke", spacing="data_dense")) == "T1-dense"
     assert matches_setting(x, study["x"], "T0") and not matches_setting(x, study["v"], "T0")
     assert not matches_setting(x, study["x"], "T1")
-    laptop = discord_config("laptop")  # the committed sweep's winner, as the laptop chapter asserts
+    laptop = xpred_config("laptop", None)  # the committed sweep's winner, as study s1 asserts: the lever
     winner = load_sweep(Path(__file__).resolve().parents[2] / "book" / "data" / "discord_sweep" / "embedded-v2")
     variant, sampling = best_setting(winner, max_budget=min(r["budget_s"] for r in winner.values()))
     assert matches_setting(laptop, winner[variant], sampling)

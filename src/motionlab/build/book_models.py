@@ -9,7 +9,7 @@ everything cached after the plan ran.
           │                 ├─ t2m/multi-eta0.25                   (chapters 08, 09)
           │                 ├─ t2m/{dynamic,uniform}-seed{1,2}     (chapter 08's training-seed control; smoke, full)
           │                 └─ discord/vq                          (chapter 09)
-          ├─ tokenizer/rvq ─┬─ discord/rvq                         (chapter 05)
+          ├─ tokenizer/rvq ─┬─ discord/rvq, discord/rvq-xpred      (chapter 05)
           │                 └─ discord/rvq-{stacked,repeat,transposed} (chapter 04)
           └─ evaluator                                             (chapters 05–09)
     toy_flow/ring, toy_flow/ring-conditional                       (chapter 03)
@@ -175,6 +175,7 @@ def book_jobs(
         job("tokenizer/rvq", "tokenizer", ("data",)),
         job("tokenizer/vq", "tokenizer", ("data",)),
         job("discord/rvq", "discord", rvq, **flow),
+        job("discord/rvq-xpred", "discord", rvq, **flow),
         job("discord/vq", "discord_short", vq, **flow),
         job("t2m/dynamic", "t2m", vq),
         job("t2m/uniform", "t2m", vq),
@@ -204,7 +205,7 @@ CHAPTER_MODELS: dict[str, tuple[str, ...]] = {
         "discord/rvq-repeat",
         "discord/rvq-transposed",
     ),
-    "05_discord": ("data", "tokenizer/rvq", "discord/rvq", "evaluator"),
+    "05_discord": ("data", "tokenizer/rvq", "discord/rvq", "discord/rvq-xpred", "evaluator"),
     "06_sjpe": ("data", "evaluator"),
     "07_discrete_diffusion": ("data", "tokenizer/vq", "t2m/dynamic", "evaluator"),
     "08_dynamic_transitions": (
@@ -228,6 +229,7 @@ CHAPTER_MODELS: dict[str, tuple[str, ...]] = {
     "s4_bf16_vs_fp32": (),
     "s5_dead_codes": (),
     "s6_judging_verdicts": (),  # judges the chapters' recorded numbers, trains nothing
+    "s7_departures": (),  # reads the configs, the recorded numbers and the committed studies
 }
 
 

@@ -122,6 +122,7 @@ CLI_OPTIONS: dict[str, dict[str, Option]] = {
         **_SHARED_OPTIONS,
         "tokenizer": Option("--tokenizer"),
         "training_seed": Option("--training-seed"),
+        "xpred": Option("--xpred", "switch"),
         "limit": Option("--limit"),
         "prediction": Option("--predict"),
         "normalization": Option("--normalization"),

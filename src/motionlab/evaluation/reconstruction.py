@@ -60,6 +60,10 @@ class ReconstructionConfig:
     ``time_distribution`` choose (and train on first use) a book decoder other than the profile's;
     ``temperature``/``spacing``/``final_prediction`` change only how it samples.
 
+    ``xpred``: the DisCoRD row is the laptop's x-predicting variant of the book's decoder (``discord/rvq-xpred``: it
+    predicts the clean motion and decodes from zero start noise, :mod:`motionlab.sizes` ``DISCORD_XPRED``), a lever
+    chapter 05 shows beside the paper's decoder; the flow options above still apply on top of it.
+
     ``training_seed``: 0, the book's tokenizer and DisCoRD decoder; ``k``, the replicate of that chain trained with
     seed ``k`` (``tokenizer/<kind>-seed<k>`` and ``discord/<kind>-seed<k>``, :mod:`motionlab.models`), as the
     training-seed study (``experiments/training_seeds.py``) evaluates them.
@@ -92,6 +96,7 @@ class ReconstructionConfig:
     spacing: str | None = None  # "uniform" | "data_dense"
     final_prediction: bool | None = None  # x-prediction: return x̂1 at the last step
     training_seed: int = 0  # the book's tokenizer and decoder (0) or a replicate of that chain
+    xpred: bool = False  # the DisCoRD row decodes with the laptop's x-predicting variant (discord/rvq-xpred)
     split: str = "test"
     limit: int | None = None  # the first `limit` clips of the split
     repeats: int = 1
@@ -162,6 +167,13 @@ class ReconstructionConfig:
         if self.released_decoder and released_tokens and "," in self.decoder:
             raise ValueError("name the tokenizer once: tokenizer= or the ',TOKENIZER' part of 'discord:FOLDER,...'")
         _check_int("training_seed", self.training_seed, 0)
+        if not isinstance(self.xpred, bool):
+            raise ValueError(f"xpred must be True or False, got {self.xpred!r}")
+        if self.xpred and (self.decoder != "discord" or self.tokenizer_kind != "rvq" or self.training_seed):
+            raise ValueError(
+                "xpred is the book's x-predicting variant of the RVQ tokens' decoder (discord/rvq-xpred): it needs "
+                "decoder='discord', the book's rvq tokenizer and training_seed=0"
+            )
         if self.training_seed and self.released:
             raise ValueError("training_seed picks a replicate of the book's models; released checkpoints have one")
         if self.evaluator is not None and not (self.evaluator.startswith("official:") and self.evaluator[9:]):
@@ -191,7 +203,7 @@ class ReconstructionConfig:
         chain = self.tokenizer_kind + (f"-seed{self.training_seed}" if self.training_seed else "")
         names = [] if self.released else [f"tokenizer/{chain}"]
         names += ["evaluator"] if self.evaluator is None else []
-        return names + ([f"discord/{chain}"] if self.decoder == "discord" else [])
+        return names + ([f"discord/{chain}" + "-xpred" * self.xpred] if self.decoder == "discord" else [])
 
     @classmethod
     def from_sizes(cls, sizes: Any, **options: Any) -> ReconstructionConfig:
@@ -268,6 +280,38 @@ def _parse_grid(grid: Any) -> tuple[tuple[str, int], ...]:
 
 # ----------------------------------------------------------------------------------------------- the tasks
 
+# A tokenizer trained on other motion may keep a clip's poses and lose where it goes: a walk decoded on the spot. Say so
+# where a clip that travels at least TRAVEL_METRES keeps under TRAVEL_KEPT of it, in at least TRAVEL_SHARE of the clips
+# that travel (a newcomer's CMU take went 3.27 m -> 0.12 m through the laptop tokenizer, and every pose score looked
+# fine; the book's own test split loses it in 1 of its 35 travelling clips, which is no pattern to warn about).
+TRAVEL_METRES = 0.5
+TRAVEL_KEPT = 0.5
+TRAVEL_SHARE = 0.25
+
+
+def warn_lost_travel(truth: Any, decoded: Any, what: str = "the tokenizer's decoder") -> list[int]:
+    """Warn when reconstructions lose most of their clips' travel on the ground; returns those clips' indices.
+
+    ``truth`` and ``decoded`` are :class:`~motionlab.metrics.ClipJoints` of the same clips. A clip loses its travel
+    where the truth travels at least :data:`TRAVEL_METRES` and the reconstruction ends less than :data:`TRAVEL_KEPT`
+    of that from its start: the tokens (or the decoder) did not carry the root's motion, which pose metrics do not
+    show. The warning comes when at least :data:`TRAVEL_SHARE` of the travelling clips do (a single clip: when it does).
+    """
+    import warnings
+
+    true_travel, kept = truth.root_travel(), decoded.root_travel()
+    travelling = true_travel >= TRAVEL_METRES
+    lost = np.flatnonzero(travelling & (kept < TRAVEL_KEPT * true_travel))
+    if len(lost) and len(lost) >= TRAVEL_SHARE * travelling.sum():
+        worst = int(lost[np.argmin(kept[lost] / true_travel[lost])])
+        warnings.warn(
+            f"{len(lost)} of {len(truth)} clips lose most of their travel through {what} (clip {worst}: "
+            f"{true_travel[worst]:.2f} m -> {kept[worst]:.2f} m from start to end): the tokens do not carry the root's "
+            "motion there, and pose scores (MPJPE, sJPE) do not show it",
+            stacklevel=3,
+        )
+    return [int(i) for i in lost]
+
 
 def evaluate_reconstruction(
     dataset,
@@ -317,7 +361,9 @@ def evaluate_reconstruction(
     _announce(_cost_line(models, normalized, window, cfg), progress)
     feed_forward = f"{models.tokens} decoder"
     _phase(f"scoring the {feed_forward}")
-    runs = {feed_forward: [score(decode_clips(normalized, tokenizer, pad_to=window))]}
+    feed_forward_recon = decode_clips(normalized, tokenizer, pad_to=window)
+    warn_lost_travel(gt_joints, ClipJoints.from_features([normalizer.denormalize(r) for r in feed_forward_recon]))
+    runs = {feed_forward: [score(feed_forward_recon)]}
     deterministic = [feed_forward]
     notes = ["The feed-forward decoder is deterministic: one run, no interval."]
     if window is not None:
@@ -591,10 +637,14 @@ def _load_models(cfg: ReconstructionConfig, dataset, profile: str, device, progr
 def _book_decoder(cfg: ReconstructionConfig, dataset, tokenizer, profile: str, device, progress: bool):
     """The book's DisCoRD decoder for ``tokenizer``'s tokens, with the config's options, and its output space."""
     from motionlab.flow import discord_config, train_or_load_discord
+    from motionlab.models import xpred_config
 
     chosen = {name: getattr(cfg, name) for name in FLOW_OPTIONS if getattr(cfg, name) is not None}
     training = {k: v for k, v in chosen.items() if k in FLOW_TRAINING_OPTIONS}
-    flow_config = discord_config(profile, tokenizer=tokenizer, seed=cfg.training_seed, **training)
+    if cfg.xpred:
+        flow_config = xpred_config(profile, tokenizer, cfg.training_seed, **training)
+    else:
+        flow_config = discord_config(profile, tokenizer=tokenizer, seed=cfg.training_seed, **training)
     _phase("loading (or training) the DisCoRD decoder")
     flow = train_or_load_discord(dataset, tokenizer, profile, config=flow_config, device=device, progress=progress)
     sampling = {k: v for k, v in chosen.items() if k in FLOW_SAMPLING_OPTIONS}

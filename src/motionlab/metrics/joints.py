@@ -108,6 +108,16 @@ class ClipJoints:
         """Every clip as a ``(T_i, J, 3)`` view."""
         return np.split(self.positions, np.cumsum(self.lengths)[:-1])
 
+    def root_travel(self) -> np.ndarray:
+        """``(N,)`` each clip's net travel on the ground, in metres: how far the root (joint 0) ends from where it
+        starts, up (y) left out. A walk across a room travels metres; a wave in place, centimetres."""
+        from ..representation import get_skeleton
+
+        first = self.positions[self.starts, 0]
+        last = self.positions[self.starts + self.lengths - 1, 0]
+        ground = (last - first)[:, [0, 2]]  # x and z: HumanML3D's y is up
+        return np.linalg.norm(ground, axis=-1) * get_skeleton(self.skeleton).meters_per_unit
+
     def windows(self, starts: Sequence[int], window: int) -> np.ndarray:
         """``(N, window, J, 3)``: frames ``starts[i] .. starts[i] + window - 1`` of every clip ``i`` (a copy)."""
         first = np.asarray(starts, np.int64)

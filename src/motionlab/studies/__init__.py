@@ -18,6 +18,7 @@ module                      study
 ``precision_parity``        "bf16 against fp32": the recorded parity runs
 ``retraining``              "Retraining and the verdicts": each training run's difference against the mean
 ``scale``                   chapter 99: the scale study's points trained, scored and planned (``experiments/scale.py``)
+``departures``              "Where the laptop departs from the papers": each departure and the verdicts it moves
 ==========================  ==========================================================================================
 
 The training-seed, budget and η studies feed the claims table's verdicts, so they are read by

@@ -1,0 +1,150 @@
+"""The departures page (study s7): rows read from the configs, four columns each, claims judged both ways by their own
+rule, and "not yet measured" where a number is missing."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+import yaml
+
+from motionlab import sizes
+from motionlab.flow import discord_config
+from motionlab.report.claims import CLAIMS
+from motionlab.report.rules import Less
+from motionlab.report.store import FAILS, HOLDS, MISSING, Result
+from motionlab.studies import departures
+from motionlab.studies.departures import Departure, Measurements, Setting
+
+ROOT = Path(__file__).resolve().parents[2]
+NOTHING = Measurements(recorded={})  # no recorded result and no study: every measured cell is missing
+
+
+def _row(rows: list[Departure], topic: str) -> Departure:
+    return next(r for r in rows if r.topic == topic)
+
+
+def _result(key: str, value: float, half: float | None = None) -> Result:
+    chapter, name = key.split("/", 1)
+    return Result(chapter, name, value, None if half is None else (value - half, value + half))
+
+
+def test_the_width_cell_follows_the_laptop_config(monkeypatch):
+    before = _row(departures.discord_departures("laptop", NOTHING), "U-Net width")
+    assert str(discord_config("laptop").width) in before.build
+    assert before.paper.startswith(f"{discord_config('full').width},")  # the paper's column is the full config's
+
+    monkeypatch.setitem(sizes.DISCORD_DECODER, "laptop", {**sizes.DISCORD_DECODER["laptop"], "width": 96})
+    after = _row(departures.discord_departures("laptop", NOTHING), "U-Net width")
+    assert after.build.startswith("96,") and after.paper == before.paper
+
+
+def test_a_setting_the_laptop_shares_with_the_paper_says_so(monkeypatch):
+    row = _row(departures.discord_departures("laptop", NOTHING), "training window")
+    assert row.build.startswith("as the paper") and row.depends is False and row.verdict.startswith("none")
+
+    monkeypatch.setitem(sizes.DISCORD_DECODER, "laptop", {**sizes.DISCORD_DECODER["laptop"], "window": 32})
+    row = _row(departures.discord_departures("laptop", NOTHING), "training window")
+    assert row.build.startswith("32 frames") and row.depends is None
+
+
+def test_the_m2d2m_cells_follow_the_denoiser_config(monkeypatch):
+    before = _row(departures.m2d2m_departures("laptop", NOTHING), "model size and training budget")
+    steps = sizes.DENOISER["laptop"]["train_steps"]
+    assert f"{steps:,} steps" in before.build and "110 epochs" in before.paper
+
+    monkeypatch.setitem(sizes.DENOISER, "laptop", {**sizes.DENOISER["laptop"], "train_steps": 1234})
+    after = _row(departures.m2d2m_departures("laptop", NOTHING), "model size and training budget")
+    assert "1,234 steps" in after.build and after.paper == before.paper
+
+
+@pytest.mark.parametrize("profile", ["smoke", "laptop"])
+def test_every_row_has_all_four_columns(profile):
+    for rows in (departures.discord_departures(profile, NOTHING), departures.m2d2m_departures(profile, NOTHING)):
+        assert rows and len({r.topic for r in rows}) == len(rows)
+        for row in rows:
+            assert all(cell.strip() for cell in row.cells()), row
+        lines = departures.to_markdown(rows, profile).splitlines()
+        assert lines[0].count(" | ") == 4 and f"what the {profile} build does" in lines[0]
+        assert len(lines) == 2 + len(rows)
+
+
+def test_a_bar_in_a_cell_is_escaped_and_a_line_break_joined():
+    row = Departure("a | b", "p(x | y)", "one\ntwo", "why", "none")
+    line = departures.to_markdown([row], "laptop").splitlines()[-1]
+    assert "p(x \\| y)" in line and "a \\| b" in line and "one two" in line
+
+
+def test_the_sjpe_claim_is_judged_both_ways_by_its_own_rule():
+    recorded = {
+        "discord/sjpe_rf": _result("discord/sjpe_rf", 1.0, 0.01),
+        "discord/sjpe_ff": _result("discord/sjpe_ff", 1.5),
+        "discord/sjpe_xpred": _result("discord/sjpe_xpred", 2.0, 0.01),
+        "discord/sjpe_rf_minus_ff": _result("discord/sjpe_rf_minus_ff", -0.5, 0.05),
+    }
+    claim = next(c for c in CLAIMS if c.keys == ("discord/sjpe_rf", "discord/sjpe_ff"))
+    swapped = departures.substituted(claim.rule, departures.XPRED_KEYS)
+    # the same rule on the variant's number; the rf pair's paired difference is not the variant's
+    assert swapped == Less("discord/sjpe_xpred", "discord/sjpe_ff", clips=None)
+    ((judged),) = departures.judge_settings(
+        [claim], [Setting("paper", recorded), Setting("variant", recorded, departures.XPRED_KEYS)]
+    )
+    assert judged.verdicts == (("paper", claim.rule.judge(recorded)), ("variant", swapped.judge(recorded)))
+    assert [v for _, v in judged.verdicts] == [HOLDS, FAILS] and judged.changes
+
+    row = _row(departures.discord_departures("laptop", Measurements(recorded)), "prediction target and start noise")
+    assert row.depends is True and row.verdict.startswith("yes")
+    assert f"{HOLDS} (the paper's decoder), {FAILS} (x-prediction variant)" in row.verdict
+
+
+def test_missing_keys_read_as_not_yet_measured():
+    rows = departures.discord_departures("laptop", NOTHING)
+    for topic in ("prediction target and start noise", "solver steps"):
+        row = _row(rows, topic)
+        assert row.verdict.startswith(MISSING) and row.depends is None
+    # one side recorded, the other not: still not measured, never a verdict from half the numbers
+    half = {k: _result(k, 1.0) for k in ("discord/sjpe_rf", "discord/sjpe_ff")}
+    row = _row(departures.discord_departures("laptop", Measurements(half)), "prediction target and start noise")
+    assert row.verdict.startswith(MISSING)
+    m2d2m = departures.m2d2m_departures("laptop", NOTHING)
+    assert _row(m2d2m, "joint-phase text (Two-Phase Sampling)").verdict.startswith(MISSING)
+    assert departures.verdict(Less("a/x", "a/y"), {}) == MISSING
+
+
+def test_the_sentence_is_read_from_the_rows():
+    rows = [
+        Departure("width", "p", "b", "w", "yes", True),
+        Departure("window", "p", "b", "w", "none", False),
+        Departure("encoder", "p", "b", "w", "not measured here", None),
+    ]
+    sentence = departures.dependence_sentence(rows, "DisCoRD")
+    assert sentence == "A verdict of DisCoRD depends on *width*; none depends on *window*; not measured: *encoder*."
+    assert departures.dependence_sentence(rows[1:], "M2D2M") == (
+        "No verdict of M2D2M depends on *window*; not measured: *encoder*."
+    )
+    assert departures.dependence_sentence(rows[2:], "M2D2M").startswith("No departure of M2D2M was measured here")
+
+
+def test_the_committed_studies_measure_the_laptop_rows():
+    measured = Measurements.load("laptop")
+    if measured.sweep is None or measured.eta is None:
+        pytest.skip("the committed studies are not in this checkout")
+    discord = departures.discord_departures("laptop", measured)
+    for topic in ("U-Net width", "feature normalisation"):
+        assert _row(discord, topic).depends is not None  # s1's sweep judged the claims both ways
+    eta = _row(departures.m2d2m_departures("laptop", measured), "η of the dynamic transitions")
+    assert eta.depends is not None and "η = 0.5 (the paper's)" in eta.verdict
+
+
+def test_the_page_is_a_study_of_the_book():
+    toc = yaml.safe_load((ROOT / "book" / "_toc.yml").read_text())
+    studies = next(part for part in toc["parts"] if part["caption"] == "Studies")
+    assert {"file": "notebooks/s7_departures"} in studies["chapters"]
+    from motionlab.build.book_models import CHAPTER_MODELS
+
+    assert CHAPTER_MODELS["s7_departures"] == ()  # it trains nothing
+    page = json.loads((ROOT / "notebooks" / "s7_departures.ipynb").read_text())
+    assert page["metadata"]["motionlab"]["run_last"]  # it reads what the chapters recorded
+    for linking in ("99_what_reproduces", "98_full_scale"):
+        assert "s7_departures.ipynb" in (ROOT / "notebooks" / f"{linking}.ipynb").read_text()
