@@ -51,8 +51,8 @@ from torch.utils.flop_counter import FlopCounterMode
 
 from motionlab.data import load_dataset
 from motionlab.flow import DisCoRDDecoder, discord_config
+from motionlab.models import NETWORKS
 from motionlab.precision import autocast
-from motionlab.report.gpu import BENCH_MODEL_OF_PART
 from motionlab.settings import env_compile
 from motionlab.tokenizers import build_tokenizer, rvq_config
 from motionlab.tokenizers.training import tokenizer_loss_fn
@@ -60,7 +60,7 @@ from motionlab.train.compiling import compile_mode
 
 REPO = Path(__file__).resolve().parents[1]
 MODELS = ("rvq", "discord", "t2m")
-PART_OF_MODEL = {model: part for part, model in BENCH_MODEL_OF_PART.items()}  # the network compiling targets
+PART_OF_MODEL = {model: part for part, model in NETWORKS.values() if model}  # the network compiling targets
 PRECISIONS = ("bf16", "fp32")
 TOKENS = 49  # 196 frames: Table E's clip
 DECODE_BATCHES = (1, 32)

@@ -78,7 +78,6 @@ from motionlab.studies.scale import (
     plan_lines,
     plan_point,
     point_seconds,
-    predicted_seconds,
     score_point,
     train_point,
 )
@@ -155,7 +154,6 @@ def run_point(point: Point, profile: str, device: str, rates: Rates) -> dict:
         "seconds": {
             "training": round(scoring_start - start, 1),
             "scoring": round(time.perf_counter() - scoring_start, 1),
-            "predicted_training": predicted_seconds(list(planned.values())),
         },
         "configs": _configs(point, profile),
         "values": {key: estimate_json(e) for key, e in values.items()},

@@ -10,6 +10,7 @@ these tests check the documented result device and valid output only.
 
 from __future__ import annotations
 
+import pytest
 import torch
 from torch import nn
 
@@ -92,6 +93,31 @@ def test_a_denoising_step_runs_where_the_model_lives_and_answers_on_the_callers_
     assert ((out >= 0) & (out < K))[~padding].all() and (out[padding] == K).all()
 
 
+def test_a_denoising_step_hands_the_network_its_inputs_on_the_models_device(monkeypatch):
+    """On a CPU-only machine the step above shares one device with its inputs, so it cannot see a missing move. Here
+    the model lives on ``meta`` and the network call is intercepted: every tensor it is given must be there."""
+    from motionlab.diffusion import sampling
+
+    class Moved(Exception):
+        pass
+
+    seen = {}
+
+    def network(model, x_t, t, text, guided, **masks):
+        seen.update(x_t=x_t.device, text=text.device, **{k: v.device for k, v in masks.items() if v is not None})
+        raise Moved
+
+    monkeypatch.setattr(sampling, "_model_log_p_x0", network)
+    model, transitions = denoiser(META)
+    text, text_padding = cpu_text()
+    x = torch.full((3, 6), K)
+    padding = torch.zeros(3, 6, dtype=torch.bool)
+    with pytest.raises(Moved):
+        denoise_step(model, transitions, x, T, 0, text, text_padding, generator=torch.Generator(), padding_mask=padding)
+    assert set(seen) == {"x_t", "text", "text_padding_mask", "padding_mask"}
+    assert set(seen.values()) == {META}
+
+
 def test_the_diffusion_loss_takes_a_batch_built_on_the_cpu():
     model, transitions = denoiser(get_device())
     text, text_padding = cpu_text()
@@ -111,6 +137,7 @@ def test_the_entropy_diagnostic_takes_text_features_from_the_cpu():
         model, transitions, x0, text, text_padding, timesteps=[T, T // 2], generator=torch.Generator().manual_seed(0)
     )
     assert curve.entropy.shape == (2,) and torch.isfinite(curve.entropy).all() and (curve.entropy >= 0).all()
+    assert curve.entropy.device == curve.nll.device == torch.device("cpu")  # one host number per step, as documented
 
 
 def test_model_space_scaling_answers_on_the_motions_device():

@@ -269,6 +269,20 @@ def _record_training(path: Path, results) -> None:
     print(f"training times recorded in {path}")
 
 
+def _book_stale(args: argparse.Namespace) -> int:
+    from .report.stale import stale_records
+
+    profile = args.profile or "laptop"  # the committed records are the laptop profile's
+    stale = stale_records(profile)
+    if not stale:
+        print(f"every committed {profile} record measures the code as it is")
+        return 0
+    print(f"{len(stale)} committed {profile} record(s) measured other models or evaluations than the code's now:")
+    for record in stale:
+        print(record.line(Path.cwd()))
+    return 1
+
+
 def _book_execute(args: argparse.Namespace) -> int:
     import os
     import time
@@ -961,7 +975,9 @@ def _settings(args: argparse.Namespace):
             raise ValueError("--force-precision insists on a --precision; give one")
         os.environ["MOTIONLAB_FORCE_PRECISION"] = "1"  # exported: workers and chapter kernels insist too
     threads = args.threads if args.threads is not None else env_threads()
-    if threads is None and (threads := threads_for_load()) is not None:
+    # The commands that run models here choose by the load; the others (book's kernels) keep their own choice, 1
+    runs_models = getattr(args, "command", None) in ("train", "generate", "evaluate")
+    if threads is None and runs_models and (threads := threads_for_load()) is not None:
         print(
             f"note: other programs are using the CPU (load {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores): "
             f"{threads} torch thread{'s' * (threads > 1)}, which is faster then; --threads N chooses",
@@ -1202,6 +1218,18 @@ def build_parser() -> argparse.ArgumentParser:
         help="also write the timings to book/data/build_times/<profile>.json (committed)",
     )
     execute.set_defaults(func=_book_execute)
+    stale = book_sub.add_parser(
+        "stale",
+        help="list the committed study records a change to the code makes stale, and what measuring them costs",
+        description="Every record under book/data/ (scale points, training-seed runs, budget and η models) carries the "
+        "configs it was measured with; list those the working tree no longer reproduces, each with the command "
+        "that measures it again and how long that took last time. Nothing runs. Exit 1 where any is stale.",
+        epilog=examples_epilog(("book stale", "after changing sizes.py or a model, before committing")),
+    )
+    stale.add_argument(
+        "--profile", choices=["smoke", "laptop", "full"], default=None, help="whose records (default: laptop)"
+    )
+    stale.set_defaults(func=_book_stale)
 
     gen = sub.add_parser(
         "generate",

@@ -49,16 +49,35 @@ _T2M = re.compile(r"^t2m/(dynamic|uniform)(?:-seed(\d+))?(?:-steps(\d+))?$")
 _ETA = re.compile(r"^t2m/eta(\d+(?:\.\d+)?)$")  # the dynamic model at any η (training seed 0): η sweeps
 _MULTI = re.compile(r"^t2m/multi-eta0\.25(?:-seed(\d+))?$")
 _SEEDED = re.compile(r"^(vq|rvq)(?:-seed(\d+))?$")  # a tokenizer kind, or a replicate of its training chain
-# The network of each kind of book model that motionlab.train.compiling may compile (a name's part before "/").
-_COMPILED_PART = {"tokenizer": "tokenizer", "discord": "discord", "t2m": "denoiser"}
+# One table for what the book's models train: by name prefix, the network motionlab.train.compiling may compile (one of
+# its PARTS) and the model of the GPU benchmark (benchmarks/bench_gpu.py, book/data/gpu/) that timed that training and
+# its compiling. The benchmark timed the RVQ tokenizer only: the VQ one borrows no time from it. The other models
+# (data, evaluator, toy flows) never compile and were never timed.
+NETWORKS: dict[str, tuple[str, str | None]] = {  # name prefix -> (compiled part, benchmark model)
+    "tokenizer/vq": ("tokenizer", None),
+    "tokenizer/rvq": ("tokenizer", "rvq"),
+    "discord/": ("discord", "discord"),
+    "t2m/": ("denoiser", "t2m"),
+}
+
+
+def _network(name: str) -> tuple[str, str | None] | None:
+    return next((entry for prefix, entry in NETWORKS.items() if name.startswith(prefix)), None)
 
 
 def compiled_part(name: str) -> str | None:
     """The part (:data:`motionlab.train.compiling.PARTS`) that compiling targets when the book's model ``name``
     trains, e.g. ``"denoiser"`` for ``t2m/dynamic``; None for the models that never compile (data, evaluator, toy
     flows)."""
-    kind, slash, _ = name.partition("/")
-    return _COMPILED_PART.get(kind) if slash else None
+    entry = _network(name)
+    return entry[0] if entry else None
+
+
+def benchmark_model(name: str) -> str | None:
+    """The GPU benchmark's model whose training step and compile stand for the book's model ``name`` (e.g. ``"t2m"``
+    for ``t2m/dynamic``); None where the benchmark timed none (the VQ tokenizer, the evaluator, ...)."""
+    entry = _network(name)
+    return entry[1] if entry else None
 
 
 def _tokenizer(kind: str, dataset, profile: str, device, seed: int = 0):
@@ -228,4 +247,13 @@ def xpred_config(profile: str, tokenizer, seed: int = 0, **overrides):
     return discord_config(profile, tokenizer=tokenizer, seed=seed, **{**levers, **overrides})
 
 
-__all__ = ["book_dataset", "compiled_part", "forget_book_datasets", "load", "projection_config", "xpred_config"]
+__all__ = [
+    "NETWORKS",
+    "benchmark_model",
+    "book_dataset",
+    "compiled_part",
+    "forget_book_datasets",
+    "load",
+    "projection_config",
+    "xpred_config",
+]

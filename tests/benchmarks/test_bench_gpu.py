@@ -83,7 +83,8 @@ def test_the_denoiser_is_also_timed_compiled_with_cuda_graphs(bench_gpu, tmp_pat
     assert set(train) == {"library train_step", "module", "module, compiled", "module, compiled, CUDA graphs"}
     assert modes == [("DenoisingTransformer", "default"), ("DenoisingTransformer", "reduce-overhead")]
     assert len(marks) == 1 + 2 * 2  # every step of the graphed variant begins an iteration: first call, warm-up, round
-    assert train["module, compiled, CUDA graphs"]["compile_s"] > 0
+    compile_s = train["module, compiled, CUDA graphs"]["compile_s"]  # the first call's time; compiling is stubbed
+    assert isinstance(compile_s, float) and compile_s >= 0  # here, so only that it is recorded is checked
     assert train["library train_step"]["compile_mode"] == "off"  # the run's auto compiles nothing on a CPU
     (machine,) = [r for r in json.loads(out.read_text()) if r["section"] == "machine"]
     assert machine["compile_setting"] == "auto"

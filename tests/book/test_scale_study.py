@@ -312,6 +312,20 @@ def test_the_records_read_back_into_the_claims_table(smoke, tmp_path, monkeypatc
         claims_table("smoke", scale=5, budget=None, spread=None)
 
 
+def test_a_record_scored_by_another_evaluation_is_set_aside(smoke, tmp_path):
+    """The same models scored another way (here: more sampling seeds) are another measurement: a point records its
+    evaluations' configs as well as its models', and the reader compares both."""
+    folder = tmp_path / "scale"
+    folder.mkdir()
+    record = json.loads((smoke["out"] / "discord-x1.json").read_text())
+    evaluation = record["configs"]["evaluations"]["reconstruction"]
+    evaluation["repeats"] += 1
+    (folder / "discord-x1.json").write_text(json.dumps(record))
+    with pytest.warns(UserWarning, match="every scale-study file"):
+        study = load_scale_study("smoke", folder)
+    assert study.set_aside and "evaluations.reconstruction.repeats" in study.set_aside[0]
+
+
 def test_a_record_of_other_configs_is_set_aside(smoke, tmp_path):
     folder = tmp_path / "scale"
     folder.mkdir()

@@ -144,15 +144,28 @@ def test_a_busy_machine_gets_the_threads_its_other_programs_leave(monkeypatch, c
     for load, threads in ((0.0, None), (0.4, None), (4.0, 12), (15.5, 1), (40.0, 1)):
         monkeypatch.setattr(os, "getloadavg", lambda load=load: (load, load, load))
         assert threads_for_load() == threads, load
+    from argparse import Namespace
+
+    from motionlab.cli import _settings
+
+    def settle(command: str) -> int:
+        run = dict(threads=None, precision=None, force_precision=False, deterministic=None, compile=None)
+        monkeypatch.delenv("MOTIONLAB_THREADS", raising=False)
+        _settings(Namespace(command=command, profile="smoke", **run))
+        return torch.get_num_threads()
+
     before = torch.get_num_threads()
     try:
         monkeypatch.setattr(os, "cpu_count", lambda: 2)
         monkeypatch.setattr(os, "getloadavg", lambda: (3.9, 3.9, 3.9))
-        assert main(["data", "check", "/nonexistent/folder"]) == 1
-        assert torch.get_num_threads() == 1
-        assert "load 3.9 on 2 cores): 1 torch thread" in capsys.readouterr().err
         torch.set_num_threads(2)
-        assert main(["--threads", "2", "data", "check", "/nonexistent/folder"]) == 1  # an explicit choice wins
+        assert settle("train") == 1 and "load 3.9 on 2 cores): 1 torch thread" in capsys.readouterr().err
+        torch.set_num_threads(2)
+        assert settle("book") == 2 and not capsys.readouterr().err  # the chapters' kernels keep their one thread
+        monkeypatch.setattr(os, "getloadavg", lambda: (0.1, 0.1, 0.1))
+        assert settle("generate") == 2 and not capsys.readouterr().err  # idle: torch's own choice
+        monkeypatch.setattr(os, "getloadavg", lambda: (3.9, 3.9, 3.9))
+        assert main(["--threads", "2", "generate", "--list-words", "--profile", "smoke"]) == 0  # an explicit choice
         assert torch.get_num_threads() == 2 and "torch thread" not in capsys.readouterr().err
     finally:
         torch.set_num_threads(before)

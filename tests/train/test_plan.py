@@ -183,7 +183,7 @@ def test_the_plan_line_counts_compile_time():
 
 def test_book_jobs_take_compile_times_from_the_gpu_benchmark(monkeypatch):
     from motionlab.build.book_models import compile_estimate
-    from motionlab.models import compiled_part
+    from motionlab.models import benchmark_model, compiled_part
     from motionlab.report.gpu import newest_gpu_run
     from motionlab.train.compiling import COMPILED_ON_CUDA
 
@@ -197,14 +197,34 @@ def test_book_jobs_take_compile_times_from_the_gpu_benchmark(monkeypatch):
     assert set(estimates("cpu", "fp32").values()) == {0.0}  # auto: nothing compiles on a CPU
     for name, seconds in estimates("cuda").items():
         if compiled_part(name) in COMPILED_ON_CUDA:
-            assert seconds is not None and seconds > 0 and seconds == run.compile_seconds(compiled_part(name))
+            assert seconds is not None and seconds > 0 and seconds == run.compile_seconds(benchmark_model(name))
         else:
             assert seconds == 0.0
     monkeypatch.setenv("MOTIONLAB_COMPILE", "on")
     on_cpu = estimates("cpu", "fp32")
     assert on_cpu["tokenizer/vq"] is None and on_cpu["evaluator"] == 0.0  # compiled, never timed on a CPU
-    monkeypatch.setenv("MOTIONLAB_COMPILE", "graphs")  # the denoiser's compile with CUDA graphs is its own record
-    assert estimates("cuda")["t2m/dynamic"] == run.compile_seconds("t2m", "bf16", graphs=True)
+    # the denoiser's compile with CUDA graphs is its own record: a run that timed both tells them apart
+    from pathlib import Path
+
+    from motionlab.report.gpu import GPURun
+
+    timed = GPURun(
+        Path("timed.json"),
+        {"section": "machine"},
+        [
+            {"model": "t2m", "variant": "module, compiled", "precision": "bf16", "compile_s": 10.0},
+            {"model": "t2m", "variant": "module, compiled, CUDA graphs", "precision": "bf16", "compile_s": 25.0},
+        ],
+    )
+    graphed = {}
+    for setting in ("on", "graphs"):
+        monkeypatch.setenv("MOTIONLAB_COMPILE", setting)
+        graphed[setting] = compile_estimate("t2m/dynamic", "cuda", "bf16", timed)
+    assert graphed == {"on": 10.0, "graphs": 25.0}
     monkeypatch.setenv("MOTIONLAB_COMPILE", "off")
     assert set(estimates("cuda").values()) == {0.0}
     assert [compiled_part(n) for n in ("data", "toy_flow/ring", "t2m/multi-eta0.25")] == [None, None, "denoiser"]
+    # one table says both: the VQ tokenizer compiles like the RVQ one, but the benchmark timed only the RVQ's
+    assert [compiled_part(n) for n in ("tokenizer/vq", "tokenizer/rvq")] == ["tokenizer", "tokenizer"]
+    timed = [benchmark_model(n) for n in ("tokenizer/vq", "tokenizer/rvq", "discord/vq", "evaluator")]
+    assert timed == [None, "rvq", "discord", None]

@@ -379,11 +379,36 @@ def test_a_non_finite_loss_stops_training_at_the_next_log_line_naming_its_step(t
     assert latest_checkpoint(tmp_path) is None  # nothing a NaN has touched is saved
 
 
-def test_logged_terms_stay_on_the_device_until_a_log_line():
+def test_a_train_step_returns_its_logged_terms_as_tensors_without_graphs():
     trainer = Trainer(make_model(), noisy_mse, regression_batch, config(), progress=False)
     logged = trainer.train_step()
     assert set(logged) == {"loss", "abs_err", "grad_norm"}
     assert all(torch.is_tensor(v) and v.ndim == 0 and not v.requires_grad for v in logged.values())
+
+
+def test_fit_reads_the_device_once_per_log_line_not_once_per_step(monkeypatch):
+    """On a GPU every read of a tensor's value waits for the queue to drain: ``fit`` may read its logged sums at a log
+    line, never in the steps between. Count every read of a value over runs of 10, 20 and 30 steps, a log line every
+    10: each window of steps adds the same reads, and at most two (a read per step would add ten)."""
+    reads = {"n": 0}
+    for name in ("item", "tolist", "__float__", "__int__", "__bool__"):
+        original = getattr(torch.Tensor, name)
+
+        def counted(self, *args, _original=original, **kwargs):
+            reads["n"] += 1
+            return _original(self, *args, **kwargs)
+
+        monkeypatch.setattr(torch.Tensor, name, counted)
+
+    def reads_in_fit(steps: int) -> int:
+        trainer = Trainer(make_model(), noisy_mse, regression_batch, config(steps=steps, log_every=10), progress=False)
+        reads["n"] = 0
+        trainer.fit()
+        return reads["n"]
+
+    counts = [reads_in_fit(steps) for steps in (10, 20, 30)]
+    per_window = {b - a for a, b in zip(counts, counts[1:])}
+    assert len(per_window) == 1 and per_window.pop() <= 2, counts
 
 
 def test_a_batch_source_with_to_is_moved_to_the_training_device_once():
@@ -401,7 +426,7 @@ def test_a_batch_source_with_to_is_moved_to_the_training_device_once():
     assert moved == [torch.device("cpu")]
 
 
-def test_the_optimizer_is_torchs_adamw_bit_for_bit_without_reading_step_counters():
+def test_the_optimizer_is_torchs_adamw_bit_for_bit_without_reading_step_counters(monkeypatch):
     from motionlab.train.optim import AdamW
 
     def run(make_optimizer, steps=12, reload_at=5):
@@ -421,7 +446,27 @@ def test_the_optimizer_is_torchs_adamw_bit_for_bit_without_reading_step_counters
         return [p.detach().clone() for p in model.parameters()], opt.state_dict()
 
     options = dict(lr=3e-2, betas=(0.9, 0.99), weight_decay=0.05)
+    reads = []  # the reads of a tensor's value inside each of our optimizer's steps
+    step_of = AdamW.step
+
+    def counted_step(self, *args, **kwargs):
+        reads.append(0)
+        with monkeypatch.context() as m:
+            for name in ("item", "tolist", "__float__", "__int__", "__bool__"):
+                original = getattr(torch.Tensor, name)
+
+                def counted(t, *a, _original=original, **k):
+                    reads[-1] += 1
+                    return _original(t, *a, **k)
+
+                m.setattr(torch.Tensor, name, counted)
+            return step_of(self, *args, **kwargs)
+
+    monkeypatch.setattr(AdamW, "step", counted_step)
     ours, our_state = run(lambda params: AdamW(params, **options))
+    n_params = len(list(make_model().parameters()))
+    # each counter is read once when the optimizer first meets it, and again after a checkpoint reload; never else
+    assert reads == [n_params] + [0] * 5 + [n_params] + [0] * 5
     torchs, torch_state = run(lambda params: torch.optim.AdamW(params, foreach=False, **options))
     assert all(torch.equal(a, b) for a, b in zip(ours, torchs))
     for a, b in zip(our_state["state"].values(), torch_state["state"].values()):

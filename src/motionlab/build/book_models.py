@@ -87,14 +87,13 @@ def compile_estimate(name: str, device, precision: str, run) -> float | None:
     """Seconds the book's model ``name`` spends compiling before it trains on ``device`` under the run's compile
     setting: 0 where nothing compiles, the compile time ``run`` (a GPU benchmark's run, or None) measured, None where
     it compiles and nothing measured how long (on a CPU the compile time was never recorded)."""
-    from ..report.gpu import BENCH_MODEL_OF_PART
     from ..train.compiling import GRAPHED, compile_mode
 
-    part = models.compiled_part(name)
+    part, bench = models.compiled_part(name), models.benchmark_model(name)
     mode = compile_mode(part, device) if part is not None else None
     if mode is None:
         return 0.0
-    return None if run is None else run.compile_seconds(BENCH_MODEL_OF_PART[part], precision, mode == GRAPHED)
+    return None if run is None or bench is None else run.compile_seconds(bench, precision, mode == GRAPHED)
 
 
 def job_precision(name: str, run_precision: str) -> str:

@@ -131,6 +131,8 @@ def x0_entropy(
         timesteps: steps in [1, T] to measure at; one fresh x_t per step from ``generator``.
         guidance_scale: M2D2M's s, applied to p_θ(x_0 | x_t) as the sampler's default ``guidance_on="x0"``.
         condition: ``"text"`` (the captions) or ``"null"`` (the unconditional branch; then s must be 0).
+
+    The network runs on its own device; the curve holds one host number per step, on the CPU.
     """
     if condition not in CONDITIONS:
         raise ValueError(f"condition must be one of {CONDITIONS}, got {condition!r}")

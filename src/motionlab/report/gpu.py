@@ -28,7 +28,6 @@ MODEL_NAMES = {
     "t2m": "M2D2M text encoder + denoiser",
 }
 # The benchmark's model that times each part motionlab.train.compiling compiles.
-BENCH_MODEL_OF_PART = {"tokenizer": "rvq", "discord": "discord", "denoiser": "t2m"}
 VARIANTS = ("library train_step", "module", "module, compiled", "module, compiled, CUDA graphs", "official module")
 
 
@@ -200,7 +199,6 @@ def newest_gpu_run(profile: str | None = None) -> GPURun | None:
 
 
 __all__ = [
-    "BENCH_MODEL_OF_PART",
     "GPURun",
     "TABLE_E_KEYS",
     "newest_gpu_run",

@@ -23,18 +23,11 @@ from motionlab.evaluation.scale import (
     scaled_budgets,
     training_steps,
 )
+from motionlab.models import benchmark_model, compiled_part
 
 from .carry import config_key
 
-# The GPU benchmark's name for each kind of model it timed (``book/data/gpu/*.json``, :mod:`motionlab.report.gpu`).
-# The VQ tokenizer was not timed: its points have no predicted time rather than a borrowed one.
-BENCHMARKED = {"tokenizer/rvq": "rvq", "discord/": "discord", "t2m/": "t2m"}
 TIMED_VARIANT = "library train_step"  # what the study runs: the library's trainer, not the bare module
-
-
-def benchmark_kind(model: str) -> str | None:
-    """The benchmark's model behind ``model``'s training step (None: not timed on a GPU)."""
-    return next((kind for prefix, kind in BENCHMARKED.items() if model.startswith(prefix)), None)
 
 
 def _log(text: str) -> None:
@@ -77,7 +70,7 @@ def auto_batch_factor(multiple: float, group: str, profile: str, device: str, ru
     profile_batches = {name: training_steps(c)[1] for name, c in _configs(Point(group, 1), profile).items()}
     limit = max(1, int(multiple))
     for name, batch in profile_batches.items():
-        timed = _timed_batch(run, benchmark_kind(name))
+        timed = _timed_batch(run, benchmark_model(name))
         if timed is not None:
             limit = min(limit, max(1, timed // batch))
     factor = 1
@@ -113,7 +106,7 @@ class Rates:
         if (name, batch) in self.steps:
             ms, point = self.steps[name, batch]
             return ms, f"{ms:.3g} ms measured in {point}"
-        kind = benchmark_kind(name)
+        kind = benchmark_model(name)
         ms = self.run.step_ms(kind, TIMED_VARIANT, self.precision) if self.run is not None and kind else None
         if ms is None:
             if self.run is None:
@@ -128,15 +121,14 @@ class Rates:
         Each model compiles when its training starts, so each pays it; the benchmark's compile of the full-size
         network stands in for it (the inductor cache under ``$MOTIONLAB_HOME`` can make a later one shorter).
         """
-        from motionlab.models import compiled_part
-        from motionlab.report.gpu import BENCH_MODEL_OF_PART
         from motionlab.train.compiling import GRAPHED, compile_mode
 
         part = compiled_part(name)
         mode = compile_mode(part, "cuda") if part is not None else None
         if self.run is None or (name, batch) in self.steps or mode is None:
             return 0.0, ""
-        seconds = self.run.compile_seconds(BENCH_MODEL_OF_PART[part], self.precision, mode == GRAPHED)
+        bench = benchmark_model(name)
+        seconds = None if bench is None else self.run.compile_seconds(bench, self.precision, mode == GRAPHED)
         if seconds is None:
             return 0.0, f"; it compiles first, for a time {self.run.path.name} did not measure"
         return seconds, f"; {seconds:.0f} s of it compiling"
@@ -377,7 +369,6 @@ __all__ = [
     "measured_rates",
     "point_seconds",
     "auto_batch_factor",
-    "benchmark_kind",
     "plan_lines",
     "plan_point",
     "predicted_seconds",
