@@ -307,13 +307,17 @@ def test_profiles_and_tokenizer_matching(profile):
     assert cfg.to_dict()["lr"] == cfg.lr
 
 
-@pytest.mark.parametrize("profile", ["laptop", "full"])
-def test_result_profiles_see_all_of_the_noise(profile):
-    # a velocity U-Net narrower than the features leaves part of the noise in every decoded frame (Chapter 05);
-    # an x-predicting one does not need the width
-    cfg = discord_config(profile)
-    assert noise_floor(cfg) == 0.0
-    assert cfg.width >= cfg.feature_dim or cfg.prediction == "x"
+def test_which_decoders_see_all_of_the_noise():
+    """A velocity U-Net narrower than the features leaves part of the noise in every decoded frame (chapter 05): the
+    paper's width sees all of it; the laptop's paper decoder cannot (its verdicts say so), its x-prediction lever
+    can."""
+    from motionlab.models import xpred_config
+
+    full, laptop, lever = discord_config("full"), discord_config("laptop"), xpred_config("laptop", None)
+    assert full.prediction == laptop.prediction == "v" and full.width >= full.feature_dim and noise_floor(full) == 0.0
+    assert laptop.width < laptop.feature_dim
+    assert noise_floor(laptop) == pytest.approx((laptop.feature_dim - laptop.width) / laptop.feature_dim)
+    assert lever.prediction == "x" and noise_floor(lever) == 0.0
 
 
 def test_smoke_decoder_is_tiny():

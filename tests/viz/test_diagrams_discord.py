@@ -9,6 +9,7 @@ import pytest  # noqa: E402
 from matplotlib.patches import FancyArrowPatch, FancyBboxPatch  # noqa: E402
 
 from motionlab.flow import DisCoRDConfig, discord_config  # noqa: E402
+from motionlab.models import xpred_config  # noqa: E402
 from motionlab.viz.diagrams import discord  # noqa: E402
 
 
@@ -46,13 +47,15 @@ def test_the_papers_decoder_is_drawn_with_table_a_sizes():
 
 
 def test_sizes_and_departures_follow_the_config():
-    config = discord_config("laptop", feature_dim=251, code_dim=32)  # x-prediction from zero noise, 8 midpoint steps
+    config = xpred_config("laptop", None, feature_dim=251, code_dim=32)  # x-prediction from zero noise, 8 steps
     label = texts(discord.pipeline(config, residual_layers=1, frames=96))
     assert "24 tokens × 1 layer (" in label and "24 × 32" in label
     assert f"96 × {251 + config.cond_dim}" in label and "96 × 251" in label
     assert "8 midpoint steps = 16 U-Net calls" in label
     assert r"$\mathbf{x}_0 = 0$ (temperature 0)" in label
     assert r"outputs $\hat{\mathbf{x}}_1$" in label and "v_\\theta" not in label
+    paper = texts(discord.pipeline(discord_config("laptop")))  # the paper's protocol: v from N(0, I), 15 steps
+    assert "15 midpoint steps = 30 U-Net calls" in paper and r"\mathcal{N}(0, I)" in paper and "v_\\theta" in paper
     warm = texts(discord.pipeline(DisCoRDConfig(temperature=0.5)))
     assert r"\mathcal{N}(0, 0.5^2 I)" in warm
 
