@@ -140,7 +140,7 @@ def read_spread(files: Iterable[Path], profile: str) -> TrainingSpread | None:
             raise ValueError(f"{path} was measured on {record['data']}, the others on {data}")
         data, study = record["data"], record["study"]
         run = Run(record["precision"], int(record["training_seed"]))
-        if (stale := _stale(record, current, profile)) is not None:
+        if (stale := stale_reason(record, current, profile)) is not None:
             set_aside.append(f"{study} {run} ({Path(path).name}, commit {record['commit']}): {stale}")
             continue
         for key, value in record["values"].items():
@@ -154,8 +154,9 @@ def read_spread(files: Iterable[Path], profile: str) -> TrainingSpread | None:
     return TrainingSpread(profile, data, values, tuple(measured), tuple(set_aside))
 
 
-def _stale(record: dict, current: dict[str, dict], profile: str) -> str | None:
-    """Why ``record``'s run measured something other than the code's models and evaluations, or None if it did not."""
+def stale_reason(record: dict, current: dict[str, dict], profile: str) -> str | None:
+    """Why ``record``'s run measured something other than the code's models and evaluations, or None if it did not.
+    ``current`` caches the code's configs per study across calls (pass one dict for a folder of records)."""
     from motionlab.evaluation.studies import STUDIES, changes_phrase, config_changes, study_configs
 
     study = record["study"]

@@ -19,8 +19,7 @@ from .budget import ETA_FOLDER
 from .budget import FOLDER as BUDGET_FOLDER
 from .scale import FOLDER as SCALE_FOLDER
 from .spread import FOLDER as SEEDS_FOLDER
-from .spread import _stale as seed_run_changes
-from .spread import embedded_data_folder
+from .spread import embedded_data_folder, stale_reason
 
 
 @dataclass(frozen=True)
@@ -77,9 +76,9 @@ def stale_records(profile: str = "laptop") -> list[StaleRecord]:
             stale.append(StaleRecord(path, why, command, _cost(seconds, record)))
     current: dict[str, dict] = {}  # the code's configs per study, built once
     for path, record in _records(SEEDS_FOLDER, profile):
-        if why := seed_run_changes(record, current, profile):
+        if why := stale_reason(record, current, profile):
             seeds = f"--study {record['study']} --seeds {record['training_seed']} --profile {profile}"
-            command = f"{script}/training_seeds.py {seeds} (in {record['precision']})"
+            command = f"{script}/training_seeds.py {seeds}"  # in this machine's precision; the cost says the record's
             stale.append(StaleRecord(path, why, command, _cost(record["seconds"].get("seconds"), record)))
     for parts in (BUDGET_FOLDER, ETA_FOLDER):
         for path, record in _records(parts, profile):
