@@ -38,9 +38,9 @@ of starting again, and a point longer than one command finishes over several. Wi
 out. Stopped with SIGINT (Ctrl-C, ``timeout -s INT``) or SIGTERM (a machine's time limit), a training saves the step
 it reached first, and the carry is still packed. Without ``--carry-out``, a point cut off on a leased machine is
 retrained from the start by the next lease, at the cost of its predicted time again; on a machine that keeps
-``$MOTIONLAB_HOME`` (a workstation's CPUs, over several sittings) the next run resumes it from the cache as it is. A
-resumed model's record says from which step (``"resumed_from"``); its ``seconds`` time this run's steps only, and its
-``sittings`` list every run that trained it (steps, seconds, device).
+``$MOTIONLAB_HOME`` (a workstation's CPUs, over several sittings) the next run resumes it from the cache as it is. Each
+model's record lists its ``sittings``: every run that trained it (steps, seconds, device), so a resumed model keeps
+its whole time; the step times the next plans use come from them.
 
 Each point's record, ``<out>/<group>-x<multiple>.json``, holds the device (the GPU's name, or the CPU's), the
 precision, the torch version, the commit, the data, the batch factor, every model's steps × batch and time, the

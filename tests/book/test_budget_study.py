@@ -108,7 +108,7 @@ def test_budget_curves_and_their_figure(study_folder):
     import matplotlib
 
     matplotlib.use("Agg")
-    from motionlab.report import plot_budget
+    from motionlab.report import plot_training_scale
     from motionlab.report.budget import budget_curves
 
     study = load_budget("laptop", study_folder)
@@ -117,18 +117,21 @@ def test_budget_curves_and_their_figure(study_folder):
     assert [e.mean for _, e in curves["tps/jerk_tps"]] == [1.2, 1.68]
     with pytest.raises(KeyError, match="measures no 'discord/sjpe_rf'"):
         budget_curves(study, ["discord/sjpe_rf"])
-    (ax,) = plot_budget(study, {"transition Jerk": ["tps/jerk_tps", "tps/jerk_gt_single"]})
+    (ax,) = plot_training_scale({"transition Jerk": ["tps/jerk_tps", "tps/jerk_gt_single"]}, budget=study)
     assert [t.get_text() for t in ax.get_legend().get_texts()] == ["TPS", "real single motions"]
     assert len(ax.lines) >= 3  # two curves and the laptop's budget
+    assert [t.get_text() for t in ax.get_xticklabels()] == ["1×", "4×"]  # 800 and 3,200 steps
     with pytest.raises(ValueError, match="need as many axes"):
-        plot_budget(study, {"a": ["tps/jerk_tps"], "b": ["tps/jerk_tps"]}, axes=[ax])
+        plot_training_scale({"a": ["tps/jerk_tps"], "b": ["tps/jerk_tps"]}, budget=study, axes=[ax])
+    with pytest.raises(ValueError, match="need a budget study or a scale study"):
+        plot_training_scale({"a": ["tps/jerk_tps"]})
 
 
 def test_budgets_in_another_precision_are_labelled_with_it(study_folder):
     import matplotlib
 
     matplotlib.use("Agg")
-    from motionlab.report import plot_budget
+    from motionlab.report import plot_training_scale
 
     study = load_budget("laptop", study_folder)
     assert study.precision(800) == "fp32" and not study.mixed_precision  # records without the field are fp32
@@ -140,8 +143,8 @@ def test_budgets_in_another_precision_are_labelled_with_it(study_folder):
     assert study.precision(3200) == "bf16" and study.mixed_precision  # seed 1 (fp32) is in one arm: not judged
     sentence = scale_statement(_claim("diffusion/fid_guided"), study).sentence()
     assert "800 steps (1×, fp32): does not hold; 3,200 steps (4×, bf16)" in sentence
-    (ax,) = plot_budget(study, {"FID": ["diffusion/fid_guided"]})
-    assert [t.get_text() for t in ax.get_xticklabels()] == ["800\nfp32", "3,200\nbf16"]
+    (ax,) = plot_training_scale({"FID": ["diffusion/fid_guided"]}, budget=study)
+    assert [t.get_text() for t in ax.get_xticklabels()] == ["1×\nfp32", "4×\nbf16"]
 
 
 def test_the_eta_axis_takes_eta_0_and_the_paper_s_from_the_budget_study(study_folder, tmp_path):
@@ -213,32 +216,32 @@ def _scale_study(values: dict[str, tuple[float, float]], multiples=(10.0, 30.0))
     return ScaleStudy("laptop", records)
 
 
-def test_the_budget_figure_adds_the_scale_study_s_points(study_folder):
+def test_one_figure_draws_the_budget_line_the_scale_points_and_this_build(study_folder):
     import matplotlib
 
     matplotlib.use("Agg")
-    from motionlab.report import plot_budget, plot_scale
+    from motionlab.report import plot_training_scale
 
     budget = load_budget("laptop", study_folder)
     scale = _scale_study({"tps/jerk_tps": (1.5, 0.05), "tps/jerk_gt_single": (1.6, 0.03)})
-    (ax,) = plot_budget(budget, {"transition Jerk": ["tps/jerk_tps", "tps/jerk_gt_single"]}, scale=scale)
+    panel = {"transition Jerk": ["tps/jerk_tps", "tps/jerk_gt_single"]}
+    (ax,) = plot_training_scale(panel, budget=budget, scale=scale)
     diamonds = [line for line in ax.lines if line.get_marker() == "D" and len(line.get_xdata())]
     assert len(diamonds) == 1  # TPS's; the real motions' Jerk does not depend on training
     assert list(diamonds[0].get_ydata()) == [1.5, 1.5 * 1.01]
-    assert diamonds[0].get_xdata()[0] == pytest.approx(10 * LAPTOP * 0.98 * 1.06)  # 10x samples, dodged
-    assert [t.get_text() for t in ax.get_xticklabels()] == ["800", "3,200", "8,000", "24,000"]
-    assert ax.get_legend().get_texts()[-1].get_text() == "scale study (NVIDIA H200, bf16)"
-    assert ax.get_xlabel().startswith("steps at the laptop's batch")
-    (plain,) = plot_budget(budget, {"transition Jerk": ["tps/jerk_tps"]})
-    assert plain.get_xlabel() == "training steps (dashed: the laptop's)"
+    assert diamonds[0].get_xdata()[0] == pytest.approx(10 * 0.98 * 1.06)  # 10x samples, dodged beside the budget
+    assert [t.get_text() for t in ax.get_xticklabels()] == ["1×", "4×", "10×", "30×"]
+    assert [t.get_text() for t in ax.get_legend().get_texts()][-1] == "scale study (NVIDIA H200, bf16)"
+    assert ax.get_xlabel() == "training samples (× the laptop's, dashed)"
 
     this_build = budget_results(budget, LAPTOP)
-    (ax,) = plot_scale(scale, {"transition Jerk": ["tps/jerk_tps"]}, this_build=this_build)
+    (ax,) = plot_training_scale({"transition Jerk": ["tps/jerk_tps"]}, scale=scale, this_build=this_build)
     assert [t.get_text() for t in ax.get_xticklabels()] == ["1×", "10×", "30×"]
     here = [line for line in ax.lines if line.get_marker() == "o"]
     assert list(here[0].get_xdata()) == [1.0] and list(here[0].get_ydata()) == [1.2]
+    assert [t.get_text() for t in ax.get_legend().get_texts()][-2:] == ["scale study (NVIDIA H200, bf16)", "this build"]
     with pytest.raises(KeyError, match="recorded no 'discord/sjpe_rf'"):
-        plot_scale(scale, {"sJPE": ["discord/sjpe_rf"]})
+        plot_training_scale({"sJPE": ["discord/sjpe_rf"]}, scale=scale)
 
 
 def test_a_verdict_path_says_each_run_of_equal_verdicts_once():

@@ -121,8 +121,12 @@ def test_a_point_measured_here_predicts_the_next_better_than_the_benchmark():
         "device_type": "cuda",
         "precision": "bf16",
         "models": {
-            "tokenizer/vq": {"steps": 10000, "batch": 64, "seconds": 50.0, "trained": True},
-            "t2m/dynamic": {"steps": 4000, "batch": 64, "seconds": 1.0, "trained": False},  # loaded: times nothing
+            "tokenizer/vq": {
+                "steps": 10000,
+                "batch": 64,
+                "sittings": [{"steps": [0, 10000], "seconds": 50.0, "device": "cuda"}],
+            },
+            "t2m/dynamic": {"steps": 4000, "batch": 64, "sittings": []},  # trained before sittings were kept: untimed
         },
         "seconds": {"scoring": 90.0},
     }
@@ -151,19 +155,10 @@ def test_a_model_trained_run_by_run_is_timed_over_its_sittings_on_that_device():
         "device_type": "cuda",
         "precision": "bf16",
         "models": {
-            "tokenizer/vq": {
-                "steps": 10000,
-                "batch": 64,
-                "seconds": 50.0,
-                "trained": True,
-                "resumed_from": 5000,
-                "sittings": sittings,
-            },
+            "tokenizer/vq": {"steps": 10000, "batch": 64, "sittings": sittings},
             "t2m/dynamic": {
                 "steps": 4000,
                 "batch": 64,
-                "seconds": 1.0,
-                "trained": False,  # finished in an earlier run
                 "sittings": [{"steps": [0, 4000], "seconds": 8.0, "device": "cuda"}],
             },
         },
@@ -282,8 +277,8 @@ def test_a_record_carries_the_machine_and_its_configs(smoke):
     assert {"device", "precision", "torch", "commit", "data", "configs", "values", "tables"} <= set(record)
     assert record["device_type"] == "cpu" and record["multiple"] == 1.0 and record["batch_factor"] == 1
     assert record["models"]["t2m/dynamic"] == record["models"]["t2m/dynamic"] | {"steps": 150, "batch": 16}
-    assert record["models"]["t2m/dynamic"]["trained"]  # a fresh cache: every model of the point trained in it
-    (sitting,) = record["models"]["t2m/dynamic"]["sittings"]  # trained in one process, this one
+    assert set(record["models"]["t2m/dynamic"]) == {"steps", "batch", "sittings"}  # the rest derives from sittings
+    (sitting,) = record["models"]["t2m/dynamic"]["sittings"]  # a fresh cache: trained in one process, this one
     assert sitting["steps"] == [0, 150] and sitting["device"] == "cpu" and sitting["seconds"] > 0
     assert point_changes(record, "smoke") == []
 
@@ -367,7 +362,6 @@ def test_the_carried_cache_holds_what_pending_points_need_and_newest_checkpoints
     (cache / "models" / "vq" / "laptop" / ".ddd.tmp-1234").mkdir()  # a half-written artefact
     folders = carry.carried_folders(cache, [{"steps": 10, "shape": [1, 2]}])
     assert [f.name for f in folders] == ["ccc.work", "aaa"]
-    assert carry.checkpoints_in_progress(cache) == {"ccc.work": 200}
     assert carry.find_artefact(cache, {"steps": 20}).name == "bbb" and carry.find_artefact(cache, {"x": 1}) is None
     progress = carry.cached_progress(cache)  # a finished model: all its steps; one in progress: its checkpoint's
     assert progress == {carry.config_key(c): n for c, n in (({"steps": 400}, 200), ({"steps": 10, "shape": [1, 2]},
@@ -420,14 +414,14 @@ def test_a_run_carries_the_models_the_next_lease_loads(tmp_path):
         "--out", str(out), "--carry-in", str(carried), home=tmp_path / "second",
     )  # fmt: skip
     assert "projection-x0.5: loading tokenizer/rvq" in second.stderr
-    record = json.loads((out / "projection-x0.5.json").read_text())
-    trained = {name: model["trained"] for name, model in record["models"].items()}
-    assert trained == {
-        "tokenizer/rvq": False,
-        "discord/rvq-stacked": False,
-        "discord/rvq-repeat": True,
-        "discord/rvq-transposed": True,
+    loaded = {line.split(": loading ")[1] for line in second.stderr.splitlines() if ": loading " in line}
+    trained = {line.split(": training ")[1] for line in second.stderr.splitlines() if ": training " in line}
+    assert loaded == {"tokenizer/rvq", "discord/rvq-stacked"} and trained == {
+        "discord/rvq-repeat",
+        "discord/rvq-transposed",
     }
+    record = json.loads((out / "projection-x0.5.json").read_text())
+    assert all(record["models"][name]["sittings"] for name in loaded | trained)  # a loaded model keeps its time
 
 
 @pytest.mark.skipif(not hasattr(signal, "SIGKILL"), reason="POSIX signals")

@@ -53,7 +53,9 @@ def main_help(argv, capsys) -> str:
 
 def test_reconstruction_vq_json_equals_the_library_scores(data, tmp_path, capsys):
     from motionlab.data import load_dataset
+    from motionlab.evaluation.reconstruction import lost_travel
     from motionlab.flow.reconstruction import decode_clips, reconstruction_scores
+    from motionlab.metrics import ClipJoints
     from motionlab.metrics.evaluator_training import load_or_train_evaluator
     from motionlab.tokenizers import tokenizer_for_dataset
 
@@ -74,6 +76,12 @@ def test_reconstruction_vq_json_equals_the_library_scores(data, tmp_path, capsys
     gt = [c.features[: len(c.features) // q * q] for c in clips]
     recon = decode_clips([dataset.normalizer.normalize(c.features) for c in clips], tokenizer)
     expected = reconstruction_scores([dataset.normalizer.denormalize(r) for r in recon], gt, evaluator.embed_motions)
+    # the lost-travel note sits under the table exactly when the building blocks find the pattern
+    _, travel_note = lost_travel(
+        ClipJoints.from_features(gt), ClipJoints.from_features([dataset.normalizer.denormalize(r) for r in recon])
+    )
+    printed = "\n".join(stdout)
+    assert (travel_note in printed) if travel_note else ("Travel lost" not in printed)
 
     result = read(out)
     header = {k: result[k] for k in ("task", "profile", "data", "split", "repeats", "seed")}

@@ -13,7 +13,6 @@ from typing import Any
 import numpy as np
 from tqdm.auto import tqdm
 
-from motionlab.estimate import Estimate
 from motionlab.precision import network_precision
 from motionlab.profiles import get_profile
 from motionlab.sizes import run_sizes
@@ -249,11 +248,6 @@ def repeat_seed(seed: int, repeat: int, stream: int = 0) -> int:
     """A 32-bit seed for repeat ``repeat`` of ``stream``, drawn from ``SeedSequence([seed, stream, repeat])``:
     unrelated across repeats even where a decode adds a batch index to it (``decode_clips`` does)."""
     return int(np.random.SeedSequence([int(seed), int(stream), int(repeat)]).generate_state(1)[0])
-
-
-def _once(scores: Mapping[str, float]) -> dict[str, Estimate]:
-    """One deterministic run as estimates: half-width 0, n = 1."""
-    return {k: Estimate(float(v), 0.0, 1) for k, v in scores.items()}
 
 
 def _bar(total: int, desc: str, progress: bool, unit: str = "it"):

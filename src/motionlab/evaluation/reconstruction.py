@@ -289,28 +289,27 @@ TRAVEL_KEPT = 0.5
 TRAVEL_SHARE = 0.25
 
 
-def warn_lost_travel(truth: Any, decoded: Any, what: str = "the tokenizer's decoder") -> list[int]:
-    """Warn when reconstructions lose most of their clips' travel on the ground; returns those clips' indices.
+def lost_travel(truth: Any, decoded: Any, what: str = "the tokenizer's decoder") -> tuple[list[int], str | None]:
+    """The clips whose reconstruction loses most of their travel on the ground, and a note when they form a pattern.
 
     ``truth`` and ``decoded`` are :class:`~motionlab.metrics.ClipJoints` of the same clips. A clip loses its travel
     where the truth travels at least :data:`TRAVEL_METRES` and the reconstruction ends less than :data:`TRAVEL_KEPT`
     of that from its start: the tokens (or the decoder) did not carry the root's motion, which pose metrics do not
-    show. The warning comes when at least :data:`TRAVEL_SHARE` of the travelling clips do (a single clip: when it does).
+    show. The note (else ``None``) comes when at least :data:`TRAVEL_SHARE` of the travelling clips do (a single
+    clip: when it does); :func:`evaluate_reconstruction` prints it under its table.
     """
-    import warnings
-
     true_travel, kept = truth.root_travel(), decoded.root_travel()
     travelling = true_travel >= TRAVEL_METRES
     lost = np.flatnonzero(travelling & (kept < TRAVEL_KEPT * true_travel))
+    note = None
     if len(lost) and len(lost) >= TRAVEL_SHARE * travelling.sum():
         worst = int(lost[np.argmin(kept[lost] / true_travel[lost])])
-        warnings.warn(
-            f"{len(lost)} of {len(truth)} clips lose most of their travel through {what} (clip {worst}: "
+        note = (
+            f"Travel lost: {len(lost)} of {len(truth)} clips lose most of their travel through {what} (clip {worst}: "
             f"{true_travel[worst]:.2f} m -> {kept[worst]:.2f} m from start to end): the tokens do not carry the root's "
-            "motion there, and pose scores (MPJPE, sJPE) do not show it",
-            stacklevel=3,
+            "motion there, and pose scores (MPJPE, sJPE) do not show it."
         )
-    return [int(i) for i in lost]
+    return [int(i) for i in lost], note
 
 
 def evaluate_reconstruction(
@@ -362,10 +361,14 @@ def evaluate_reconstruction(
     feed_forward = f"{models.tokens} decoder"
     _phase(f"scoring the {feed_forward}")
     feed_forward_recon = decode_clips(normalized, tokenizer, pad_to=window)
-    warn_lost_travel(gt_joints, ClipJoints.from_features([normalizer.denormalize(r) for r in feed_forward_recon]))
+    _, travel_note = lost_travel(
+        gt_joints, ClipJoints.from_features([normalizer.denormalize(r) for r in feed_forward_recon])
+    )
     runs = {feed_forward: [score(feed_forward_recon)]}
     deterministic = [feed_forward]
     notes = ["The feed-forward decoder is deterministic: one run, no interval."]
+    if travel_note:
+        notes.append(travel_note)
     if window is not None:
         notes.append(f"Every clip was tokenised zero-padded to {window} frames, as the released evaluation does.")
     timers: dict[str, Callable[[], Any]] = {}

@@ -15,8 +15,7 @@ difference on other training runs (:func:`load_spread`), the verdict is the mean
 
 from motionlab.comparison import Comparison, RunDifferences, Sentence, compare, difference, this_build, trend
 
-from .budget import plot_budget
-from .scale import plot_scale, scale_changes
+from .scale import plot_training_scale, scale_changes
 from .spread import TrainingSpread, load_spread
 
 __all__ = [
@@ -27,8 +26,7 @@ __all__ = [
     "compare",
     "difference",
     "load_spread",
-    "plot_budget",
-    "plot_scale",
+    "plot_training_scale",
     "scale_changes",
     "this_build",
     "trend",

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import json
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -208,66 +208,6 @@ def budget_curves(study: BudgetStudy, keys: Sequence[str], guidance_scale: float
     return curves
 
 
-def plot_budget(
-    study: BudgetStudy,
-    panels: Mapping[str, Sequence[str]],
-    *,
-    scale=None,
-    axes=None,
-    figsize: tuple[float, float] = (7.4, 2.4),
-):
-    """The budget study's numbers against training steps: one panel per entry of ``panels`` (title -> claim keys,
-    e.g. ``{"transition Jerk": ["tps/jerk_tps", "tps/jerk_gt_single"]}``), one line per key with its 95% interval,
-    the laptop's budget marked. Returns the axes.
-
-    ``scale`` (a :class:`~motionlab.report.scale.ScaleStudy`) adds its points of the same keys as hollow diamonds in
-    the key's colour, at its multiple of the laptop's training samples divided by the laptop's batch (the budget
-    study keeps that batch, so both count samples on one axis; the scale study also scales the tokenizer).
-    """
-    from motionlab.viz.plots import panel_axes  # only when drawn: the claims table must not pay for pyplot
-
-    from .quantities import quantity
-    from .scale import SCALE_MARKER, scale_legend_handle, scale_points
-
-    if not panels:
-        raise ValueError("need at least one panel")
-    axes = panel_axes(len(panels), axes, figsize=figsize)
-    for ax, (title, keys) in zip(axes, panels.items()):
-        curves = budget_curves(study, keys)
-        multiples = set()  # of the scale study's points drawn in this panel
-        for i, (key, points) in enumerate(curves.items()):
-            dodge = 1.0 + 0.04 * (i - (len(curves) - 1) / 2)  # side by side on the log axis, so the bars do not hide
-            steps = [n * dodge for n, _ in points]
-            means, halves = [e.mean for _, e in points], [e.half_width for _, e in points]
-            line = ax.errorbar(steps, means, yerr=halves, marker="o", ms=3, capsize=2, label=quantity(key)[1] or key)
-            scaled = scale_points(scale, key) if scale is not None and key not in MODEL_FREE else []
-            if scaled:
-                multiples.update(m for m, _ in scaled)
-                ax.errorbar(
-                    [m * study.laptop_steps * dodge * 1.06 for m, _ in scaled],  # beside a budget point there
-                    [e.mean for _, e in scaled],
-                    yerr=[e.half_width for _, e in scaled],
-                    color=line.lines[0].get_color(),
-                    **SCALE_MARKER,
-                )
-        ax.axvline(study.laptop_steps, color="gray", ls="--", lw=1)
-        ax.set_xscale("log")
-        mixed = study.mixed_precision  # then each budget says what it was trained in
-        ticks = {m * study.laptop_steps: f"{m * study.laptop_steps:,.0f}" for m in multiples}
-        ticks |= {n: f"{n:,}\n{study.precision(n)}" if mixed else f"{n:,}" for n in study.budgets}  # a budget's wins
-        ax.set_xticks(sorted(ticks), [ticks[n] for n in sorted(ticks)])
-        ax.minorticks_off()
-        handles, _ = ax.get_legend_handles_labels()
-        if multiples:
-            ax.set_xlabel("steps at the laptop's batch (dashed: its budget)")  # samples ÷ that batch
-            handles.append(scale_legend_handle(" / ".join(sorted({scale.where(m) for m in multiples}))))
-        else:
-            ax.set_xlabel("training steps (dashed: the laptop's)")
-        ax.set_title(title, fontsize=9)
-        ax.legend(handles=handles, fontsize=7, framealpha=0.8)
-    return axes
-
-
 ETA_FOLDER = ("book", "data", "m2d2m_eta")
 
 
@@ -331,6 +271,5 @@ __all__ = [
     "budget_results",
     "load_budget",
     "load_eta_axis",
-    "plot_budget",
     "scale_statement",
 ]

@@ -22,6 +22,13 @@ from motionlab.tokenizers.config import rvq_config
 
 from .store import Result
 
+# Library changes after which a recorded run's "library train_step" times no longer time the code: (commit, what).
+# Each removed work from a step and added none, so a run recorded before them bounds today's step from above.
+TRAIN_STEP_CHANGES = (
+    ("8eff267", "training steps stopped reading values back to the host"),
+    ("7e11823", "the RVQ's layer dropout reads the host once per step"),
+)
+
 MODEL_NAMES = {
     "rvq": "MoMask RVQ-VAE",
     "discord": "DisCoRD decoder",
@@ -52,6 +59,24 @@ class GPURun:
             f"peak {self.peak_tflops:.0f} TFLOP/s"
         )
 
+    def predates(self) -> list[tuple[str, str]]:
+        """The :data:`TRAIN_STEP_CHANGES` this run's commit lacks, by git's history (a commit git cannot place, as
+        outside a clone, counts as lacking them: the caveat is kept where it cannot be checked)."""
+        return [change for change in TRAIN_STEP_CHANGES if not _contains(self.machine.get("commit"), change[0])]
+
+    def train_step_caveat(self) -> str | None:
+        """A sentence for the pages that show this run's library train_step times, where it :meth:`predates` a
+        change that alters them (None where it does not)."""
+        changes = self.predates()
+        if not changes:
+            return None
+        what = "; ".join(f"{text} ({commit})" for commit, text in changes)
+        return (
+            f"**Measured before** {what}: its *library train_step* rows time the code as it was then and bound "
+            "today's from above; the bare module's rows do not depend on it. `BENCH_ONLY=1 tools/gpu_lease.sh` "
+            "measures them again."
+        )
+
     def decode_seconds(self, decoder: str, precision: str, batch: int, points: int) -> float | None:
         """Seconds per decode call of ``decoder`` (``points`` grid points; 0: the feed-forward decoder), or None."""
         for r in self.decode:
@@ -72,6 +97,22 @@ class GPURun:
             if (r["model"], r["variant"], r["precision"]) == (model, variant, precision):
                 return r["step_ms_median"]
         return None
+
+
+def _contains(commit: str | None, change: str) -> bool:
+    """Whether ``commit`` has ``change`` in its history (False where git cannot tell)."""
+    import subprocess
+
+    if not commit:
+        return False
+    repository = Path(__file__).resolve().parents[3]
+    try:
+        found = subprocess.run(
+            ["git", "-C", str(repository), "merge-base", "--is-ancestor", change, commit], capture_output=True
+        )
+    except OSError:  # no git
+        return False
+    return found.returncode == 0
 
 
 def read_gpu_run(path: str | os.PathLike) -> GPURun:
@@ -200,6 +241,7 @@ def newest_gpu_run(profile: str | None = None) -> GPURun | None:
 
 __all__ = [
     "GPURun",
+    "TRAIN_STEP_CHANGES",
     "TABLE_E_KEYS",
     "newest_gpu_run",
     "table_e_results",

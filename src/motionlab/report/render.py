@@ -91,19 +91,6 @@ class ClaimsTable:
         """One line per paper: ``DisCoRD: 5 of 11 claims hold, 4 do not hold, 2 inconclusive``."""
         return [f"{paper}: {count_sentence(counts)}" for paper, counts in self.by_paper().items()]
 
-    def summary_html(self) -> str:
-        """The summary lines as a box: "What reproduces" opens with it."""
-        lines = "".join(
-            f'<p class="ml-claims-summary" style="margin:0.2em 0"><b>{html.escape(paper)}</b>: '
-            f"{html.escape(count_sentence(counts))}.</p>"
-            for paper, counts in self.by_paper().items()
-        )
-        return (
-            f'<div class="admonition note ml-findings" style="border-left:4px solid #276be9;padding:0.3em 0.9em">'
-            f'<p class="admonition-title" style="font-weight:bold">What reproduces (profile '
-            f"<code>{html.escape(self.profile)}</code>)</p>{lines}</div>"
-        )
-
     def _repr_html_(self) -> str:
         return self.html()
 

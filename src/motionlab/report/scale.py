@@ -321,58 +321,93 @@ def scale_legend_handle(where: str):
     return Line2D([], [], color="gray", label=f"scale study ({where})", **marker)
 
 
-def plot_scale(
-    study: ScaleStudy, panels: Mapping[str, Sequence[str]], *, this_build=None, axes=None, figsize=(7.4, 2.4)
+def plot_training_scale(
+    panels: Mapping[str, Sequence[str]],
+    *,
+    budget=None,
+    scale: ScaleStudy | None = None,
+    this_build: Mapping[str, Result] | None = None,
+    axes=None,
+    figsize: tuple[float, float] = (7.4, 2.4),
 ):
-    """Claim numbers against the multiple of the laptop's training samples: one panel per entry of ``panels`` (title
-    -> claim keys), one colour per key; the scale study's points as hollow diamonds with their 95% intervals, and
-    this build's (1×, circles) from ``this_build`` (key -> :class:`~motionlab.report.store.Result`, e.g.
-    ``results.load_all(profile)``) where given. Returns the axes."""
+    """Claim numbers against training samples, in multiples of the laptop's: one panel per entry of ``panels`` (title
+    -> claim keys, e.g. ``{"sJPE ↓": ["discord/sjpe_rf", "discord/sjpe_ff"]}``), one colour per key, 95% intervals.
+
+    ``budget`` (a :class:`~motionlab.report.budget.BudgetStudy`: the same models trained for more steps at the
+    laptop's batch) draws a line of circles per key; ``scale`` (a :class:`ScaleStudy`, which also scales the
+    tokenizer) its points as hollow diamonds, beside a budget point at the same multiple; ``this_build`` (key ->
+    :class:`~motionlab.report.store.Result`, e.g. ``results.load_all(profile)``) a circle at 1× where no budget line
+    draws one. The real motions' Jerks (:data:`~motionlab.report.budget.MODEL_FREE`) have no scale points. Budgets
+    trained in several precisions say which under their ticks. Returns the axes.
+    """
     from matplotlib.lines import Line2D
 
-    from motionlab.viz.plots import panel_axes  # only when drawn
+    from motionlab.viz.plots import panel_axes  # only when drawn: the claims table must not pay for pyplot
 
+    from .budget import budget_curves
     from .quantities import quantity
 
     if not panels:
         raise ValueError("need at least one panel")
+    if budget is None and scale is None:
+        raise ValueError("need a budget study or a scale study to draw")
+    laptop = budget.laptop_steps if budget is not None else None
     axes = panel_axes(len(panels), axes, figsize=figsize)
     for ax, (title, keys) in zip(axes, panels.items()):
-        for key in keys:
-            points = scale_points(study, key)
-            if not points:
-                raise KeyError(f"the scale study recorded no {key!r}")
+        curves = budget_curves(budget, keys) if budget is not None else {}
+        ticks = {1.0: multiple_text(1.0)}
+        drawn_scale = drawn_here = False
+        for i, key in enumerate(keys):
+            dodge = 1.0 + 0.04 * (i - (len(keys) - 1) / 2)  # side by side on the log axis, so the bars do not hide
+            style = {"color": f"C{i}", "capsize": 2}
             label = quantity(key)[1] or key
-            line = ax.errorbar(
-                [m for m, _ in points],
-                [e.mean for _, e in points],
-                yerr=[e.half_width for _, e in points],
-                label=label,
-                **SCALE_MARKER,
-            )
-            if this_build is not None and key in this_build:
-                here = this_build[key].estimate
-                color = line.lines[0].get_color()
-                ax.errorbar([1.0], [here.mean], yerr=[here.half_width], marker="o", ms=3, capsize=2, color=color)
-        multiples = sorted({1.0, *study.multiples}) if this_build is not None else study.multiples
+            if key in curves:
+                multiples = [n / laptop for n, _ in curves[key]]
+                _errorbar(ax, multiples, [e for _, e in curves[key]], dodge, marker="o", ms=3, label=label, **style)
+                mixed = budget.mixed_precision  # then each budget says what it was trained in
+                for m, (n, _) in zip(multiples, curves[key]):
+                    ticks[m] = multiple_text(m) + (f"\n{budget.precision(n)}" if mixed else "")
+                label = None
+            elif this_build is not None and key in this_build:
+                _errorbar(ax, [1.0], [this_build[key].estimate], dodge, marker="o", ms=3, label=label, **style)
+                label, drawn_here = None, True
+            points = scale_points(scale, key) if scale is not None and key not in MODEL_FREE else []
+            if not points and label is not None:
+                raise KeyError(f"nothing to draw for {key!r}: the scale study recorded no {key!r}")
+            beside = 1.06 if curves else 1.0  # a scale point beside a budget point at the same multiple
+            marker = {k: v for k, v in SCALE_MARKER.items() if k != "capsize"}
+            multiples, estimates = [m for m, _ in points], [e for _, e in points]
+            _errorbar(ax, multiples, estimates, dodge * beside, label=label, **style, **marker)
+            ticks |= {m: ticks.get(m, multiple_text(m)) for m, _ in points}
+            drawn_scale = drawn_scale or bool(points)
+        ax.axvline(1.0, color="gray", ls="--", lw=1)
         ax.set_xscale("log")
-        ax.set_xticks(multiples, [multiple_text(m) for m in multiples])
+        ax.set_xticks(sorted(ticks), [ticks[m] for m in sorted(ticks)])
         ax.minorticks_off()
-        ax.set_xlabel(f"training samples (× {profile_text(study.profile)})")
+        profile = budget.profile if budget is not None else scale.profile
+        ax.set_xlabel(f"training samples (× {profile_text(profile)}, dashed)")
         ax.set_title(title, fontsize=9)
         handles, _ = ax.get_legend_handles_labels()
-        handles.append(scale_legend_handle(study.where_all()))
-        if this_build is not None:
+        if drawn_scale:
+            handles.append(scale_legend_handle(scale.where_all()))
+        if drawn_here:
             handles.append(Line2D([], [], color="gray", marker="o", ms=3, ls="none", label="this build"))
         ax.legend(handles=handles, fontsize=7, framealpha=0.8)
     return axes
+
+
+def _errorbar(ax, multiples: Sequence[float], estimates: Sequence[Estimate], dodge: float, **style) -> None:
+    """Points at ``multiples`` (times ``dodge``) with their 95% intervals; nothing where there are none."""
+    if multiples:
+        means, halves = [e.mean for e in estimates], [e.half_width for e in estimates]
+        ax.errorbar([m * dodge for m in multiples], means, yerr=halves, **style)
 
 
 __all__ = [
     "GPU_COMMAND",
     "SCALE_MARKER",
     "chapter_claims",
-    "plot_scale",
+    "plot_training_scale",
     "scale_changes",
     "scale_legend_handle",
     "scale_points",

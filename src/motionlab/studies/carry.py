@@ -68,11 +68,6 @@ def _in_progress(cache_root: str | Path):
             yield work, int(newest.name.removeprefix("step_"))
 
 
-def checkpoints_in_progress(cache_root: str | Path) -> dict[str, int]:
-    """``{"<hash>.work": step}``: the newest checkpoint's step of every training in progress under ``cache_root``."""
-    return {work.name: step for work, step in _in_progress(cache_root)}
-
-
 def cached_progress(cache_root: str | Path, precision: str | None = None) -> dict[str, float]:
     """How far the cache under ``cache_root`` has trained each config (in ``precision``, where given: a model trained
     in another is another artefact): ``{config_key(config): steps}``, the newest checkpoint's step for a training in
@@ -168,7 +163,6 @@ __all__ = [
     "PART_BYTES",
     "cached_progress",
     "carried_folders",
-    "checkpoints_in_progress",
     "config_key",
     "find_artefact",
     "pack_cache",

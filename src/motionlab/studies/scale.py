@@ -112,7 +112,8 @@ class Rates:
             if self.run is None:
                 return None, "no GPU benchmark"
             return None, f"no {self.precision} rate for it in {self.run.path.name}"
-        return ms, f"{ms:g} ms ({kind}, {self.precision}, {self.run.path.name}: an upper bound)"
+        before = ", recorded before the library's step got faster" if self.run.predates() else ""
+        return ms, f"{ms:g} ms ({kind}, {self.precision}, {self.run.path.name}{before}: an upper bound)"
 
     def compile_seconds(self, name: str, batch: int) -> tuple[float, str]:
         """Seconds ``name`` compiles for before it trains on the GPU, and a phrase saying so (``""``: nothing to add).
@@ -137,8 +138,7 @@ class Rates:
 def measured_rates(records: list[dict], device_type: str, precision: str, run=None) -> Rates:
     """:class:`Rates` with the step times and scoring times that ``records`` (points written by
     ``experiments/scale.py``) measured on ``device_type`` in ``precision``: a model's seconds over its steps (from
-    its sittings on ``device_type`` where the record lists them, else where the point itself trained it: a model
-    loaded from the cache measured nothing), and a group's scoring seconds (its evaluation does not depend on the
+    its sittings on ``device_type``), and a group's scoring seconds (its evaluation does not depend on the
     multiple)."""
     steps, scoring = {}, {}
     for record in sorted(records, key=lambda r: r["multiple"]):  # the largest multiple last: it wins
@@ -153,13 +153,10 @@ def measured_rates(records: list[dict], device_type: str, precision: str, run=No
 
 
 def _step_ms(model: dict, device_type: str) -> float | None:
-    """A recorded model's milliseconds per training step on ``device_type`` (None: nothing timed there)."""
-    if "sittings" in model:
-        timed = [s for s in model["sittings"] if s.get("device") == device_type and s.get("seconds") is not None]
-        n = sum(s["steps"][1] - s["steps"][0] for s in timed)
-        return 1e3 * sum(s["seconds"] for s in timed) / n if n > 0 else None
-    timed = model["steps"] - model.get("resumed_from", 0)  # a resumed training timed its last steps only
-    return 1e3 * model["seconds"] / timed if model.get("trained") and timed > 0 else None
+    """A recorded model's milliseconds per training step over its sittings on ``device_type`` (None: none timed)."""
+    timed = [s for s in model["sittings"] if s.get("device") == device_type and s.get("seconds") is not None]
+    n = sum(s["steps"][1] - s["steps"][0] for s in timed)
+    return 1e3 * sum(s["seconds"] for s in timed) / n if n > 0 else None
 
 
 def plan_point(
@@ -257,35 +254,28 @@ def _model_plan(m: PlannedModel, trained_by: str | None) -> str:
 
 # ------------------------------------------------------------------------------------------- train and score
 def train_point(point: Point, dataset, profile: str, device: str | None) -> dict[str, dict[str, Any]]:
-    """Train (or load from the cache) each model of ``point`` inside its scaled budget: ``{name: {"seconds": ...,
-    "trained": ..., "sittings": [...]}}``. ``seconds`` is this run's wall time (a model found in the cache was not
-    trained here, so its seconds time no training; ``"resumed_from": step`` marks a training that resumed a
-    checkpoint from an earlier run); ``sittings`` are every process that trained the model, this one and earlier
-    ones (:func:`motionlab.train.training_sittings`), so a model trained run by run keeps its whole time."""
+    """Train (or load from the cache) each model of ``point`` inside its scaled budget: ``{name: {"sittings": [...]}}``,
+    every process that trained the model, this one and earlier ones (:func:`motionlab.train.training_sittings`: steps,
+    seconds, device), so a model trained run by run keeps its whole time and one loaded from the cache keeps the time
+    it took where it was trained. Which models this run trained it logs ("training" or "loading")."""
     from motionlab import models
     from motionlab.paths import cache_dir
     from motionlab.precision import resolve_precision
     from motionlab.train import get_device, training_sittings
 
-    from .carry import checkpoints_in_progress, find_artefact
+    from .carry import find_artefact
 
     out = {}
     configs = _configs(point, profile)
     precision = resolve_precision(None, get_device(device))  # what these models train in: part of their cache key
-    in_progress = checkpoints_in_progress(cache_dir())  # trainings a carried-in cache resumes
     with scaled_budgets(point.multiple, point.batch_factor, profile):
         for name in group_models(point.group):
-            trained = not _cached(name, dataset, profile, device)
-            _log(f"{point.key}: {'training' if trained else 'loading'} {name}")
+            _log(f"{point.key}: {'loading' if _cached(name, dataset, profile, device) else 'training'} {name}")
             start = time.perf_counter()
             models.load(name, dataset, profile, device=device)
-            out[name] = {"seconds": round(time.perf_counter() - start, 2), "trained": trained}
             folder = find_artefact(cache_dir(), configs[name], precision)
-            if trained and folder is not None and f"{folder.name}.work" in in_progress:
-                out[name]["resumed_from"] = in_progress[f"{folder.name}.work"]  # its seconds time the rest only
-            if folder is not None and (sittings := training_sittings(folder)):
-                out[name]["sittings"] = sittings
-            _log(f"{point.key}: {name} ready in {out[name]['seconds']:.1f} s")
+            out[name] = {"sittings": training_sittings(folder) if folder is not None else []}
+            _log(f"{point.key}: {name} ready in {time.perf_counter() - start:.1f} s")
     return out
 
 

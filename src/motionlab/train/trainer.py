@@ -70,7 +70,6 @@ from .distributed import (
     shard_batch,
 )
 from .ema import EMA
-from .optim import AdamW
 from .progress import bars_enabled
 from .progress import report as report_progress
 from .schedules import SCHEDULES, lr_multiplier, set_lr
@@ -160,11 +159,17 @@ class Trainer:
         # the run's precision unless given: bf16 autocasts the forward pass; parameters, optimizer state, EMA stay fp32
         self.precision = resolve_precision(precision, self.device)
         params = [p for p in self.model.parameters() if p.requires_grad]
-        # fused: one kernel for the whole update (measured faster). fp32 on the CPU keeps the unfused update, bit for
-        # bit as before; on CUDA every precision takes the fused kernel (no per-parameter launches or step reads).
+        # fused: one kernel for the whole update (measured faster). fp32 on the CPU keeps the per-tensor update, bit
+        # for bit as before (it reads each step counter, a CPU tensor, which waits on nothing); on CUDA every
+        # precision takes the fused kernel, which keeps the counters on the device (no per-parameter launches or reads).
         fused = self.device.type == "cuda" or (self.precision == "bf16" and self.device.type == "cpu")
-        self.optimizer = AdamW(
-            params, lr=config.lr, betas=config.betas, weight_decay=config.weight_decay, fused=fused or None
+        self.optimizer = torch.optim.AdamW(
+            params,
+            lr=config.lr,
+            betas=config.betas,
+            weight_decay=config.weight_decay,
+            fused=fused or None,
+            foreach=False if not fused else None,
         )
         self.ema = EMA(self.model, config.ema_decay) if config.ema_decay else None
         # Two streams: data order stays the same when a model changes how much noise it draws.
