@@ -25,7 +25,7 @@ The η axis (issue 35): ``--etas 1 2 4 8`` trains the dynamic model at each η f
 Every model's result goes to ``<out>/<arm>-seed<k>-steps<n>.json`` (written atomically; an existing one is skipped)
 with the machine, the precision, the commit, the training time and the model's training config (``"configs"``; the
 tables carry their evaluations' configs): a file whose configs are no longer the code's is set aside when the book
-reads the folder (:func:`motionlab.report.budget.read_records`). One folder per version of the embedded data
+reads the folder (:func:`motionlab.report.spread.read_current`). One folder per version of the embedded data
 (``book/data/m2d2m_budget/embedded-v<N>/``), which the chapters read.
 """
 

@@ -181,10 +181,10 @@ def test_a_budget_measured_with_other_configs_is_set_aside(study_folder):
     assert study.budgets == [800]  # 3,200 steps lost its uniform arm
     changed, missing = sorted(study.set_aside, key=lambda line: not line.startswith("uniform"))
     assert "model.transformer.d_model" in changed and "multi.instances" in changed
-    assert missing.startswith("dynamic-seed1-steps3200.json") and "without its model's config" in missing
+    assert missing.startswith("dynamic-seed1-steps3200.json") and "without its configs" in missing
     for path in study_folder.glob("*.json"):  # now every file measured other models: as if none were recorded
         path.write_text(json.dumps({k: v for k, v in json.loads(path.read_text()).items() if k != "configs"}))
-    with pytest.warns(UserWarning, match="every file"):
+    with pytest.warns(UserWarning, match="every record in"):
         assert load_budget("laptop", study_folder) is None
 
 

@@ -316,7 +316,7 @@ def test_a_record_scored_by_another_evaluation_is_set_aside(smoke, tmp_path):
     evaluation = record["configs"]["evaluations"]["reconstruction"]
     evaluation["repeats"] += 1
     (folder / "discord-x1.json").write_text(json.dumps(record))
-    with pytest.warns(UserWarning, match="every scale-study file"):
+    with pytest.warns(UserWarning, match="every record in"):
         study = load_scale_study("smoke", folder)
     assert study.set_aside and "evaluations.reconstruction.repeats" in study.set_aside[0]
 
@@ -335,7 +335,7 @@ def test_a_record_of_other_configs_is_set_aside(smoke, tmp_path):
     claim = next(c for c in CLAIMS if c.rule.describe() == "discord/fid_rf < discord/fid_ff")
     assert sorted(study_scale(claim, study).verdicts) == [0.5]  # the stale point joins no verdict
     (folder / "discord-x0.5.json").write_text(json.dumps({**record, "multiple": 0.5}))
-    with pytest.warns(UserWarning, match="every scale-study file"):
+    with pytest.warns(UserWarning, match="every record in"):
         assert load_scale_study("smoke", folder).records == {}
 
 

@@ -15,8 +15,6 @@ with Student's t, where a budget has several).
 
 from __future__ import annotations
 
-import json
-import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -84,26 +82,14 @@ def load_budget(profile: str, folder: str | Path | None = None) -> BudgetStudy |
 
 
 def read_records(folder: Path, profile: str) -> tuple[list[dict], list[str]]:
-    """The budget-study (or η-axis) files of ``profile`` in ``folder`` whose model and evaluations are the ones the
-    code builds now, and one line per file set aside because they are not
-    (:func:`motionlab.evaluation.studies.budget_changes`): a model trained or scored otherwise is another model."""
-    from motionlab.evaluation.studies import budget_changes, changes_phrase
+    """The budget-study (or η-axis) files of ``profile`` in ``folder`` that measured the code's models and evaluations,
+    and a line per file set aside (:func:`~motionlab.report.spread.read_current` with
+    :func:`motionlab.evaluation.studies.budget_changes`)."""
+    from motionlab.evaluation.studies import budget_changes
 
-    records, set_aside = [], []
-    for path in sorted(folder.glob("*.json")):
-        record = json.loads(path.read_text())
-        if record.get("profile") != profile:
-            continue
-        changes = budget_changes(record, profile)
-        if changes is None:
-            set_aside.append(f"{path.name} (commit {record['commit']}): recorded without its model's config")
-        elif changes:
-            set_aside.append(f"{path.name} (commit {record['commit']}): {changes_phrase(changes)}")
-        else:
-            records.append(record)
-    if set_aside and not records:  # every file measured other models: as if none were recorded, said once
-        warnings.warn(f"every file in {folder} was set aside:\n" + "\n".join(set_aside), stacklevel=3)
-    return records, set_aside
+    from .spread import read_current
+
+    return read_current(folder, profile, budget_changes)
 
 
 def _cells(record: dict, arm: str, guidance_scale: float) -> dict[str, Estimate]:

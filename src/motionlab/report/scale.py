@@ -13,8 +13,6 @@ multiple tried and what the numbers do there.
 
 from __future__ import annotations
 
-import json
-import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from itertools import groupby
@@ -115,26 +113,14 @@ def load_scale_study(profile: str, folder: str | Path | None = None) -> ScaleStu
 
 
 def read_scale_records(folder: Path, profile: str) -> tuple[list[dict], list[str]]:
-    """The scale-study files of ``profile`` in ``folder`` measured with the models and evaluations the code builds
-    now, and one line per file set aside because they are not (:func:`motionlab.evaluation.scale.point_changes`)."""
+    """The scale-study files of ``profile`` in ``folder`` that measured the code's models and evaluations, and a line
+    per file set aside (:func:`~motionlab.report.spread.read_current` with
+    :func:`motionlab.evaluation.scale.point_changes`)."""
     from motionlab.evaluation.scale import point_changes
-    from motionlab.evaluation.studies import changes_phrase
 
-    records, set_aside = [], []
-    for path in sorted(folder.glob("*.json")):
-        record = json.loads(path.read_text())
-        if record.get("study") != "scale" or record.get("profile") != profile:
-            continue
-        changes = point_changes(record, profile)
-        if changes is None:
-            set_aside.append(f"{path.name} (commit {record.get('commit', '?')}): recorded without its configs")
-        elif changes:
-            set_aside.append(f"{path.name} (commit {record.get('commit', '?')}): {changes_phrase(changes)}")
-        else:
-            records.append(record)
-    if set_aside and not records:  # said once: every file measured other models
-        warnings.warn(f"every scale-study file in {folder} was set aside:\n" + "\n".join(set_aside), stacklevel=3)
-    return records, set_aside
+    from .spread import read_current
+
+    return read_current(folder, profile, point_changes, study="scale")
 
 
 @dataclass(frozen=True)

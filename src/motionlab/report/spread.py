@@ -20,7 +20,7 @@ from __future__ import annotations
 import json
 import math
 import warnings
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from statistics import stdev
@@ -118,6 +118,32 @@ def study_folder(parts: Sequence[str], folder: str | Path | None = None) -> Path
     """Where a study's records are read from: ``folder`` where given, else :func:`embedded_data_folder` of ``parts``
     (None outside the repository)."""
     return Path(folder) if folder is not None else embedded_data_folder(parts)
+
+
+def read_current(
+    folder: Path, profile: str, changes: Callable[[dict, str], list | None], study: str | None = None
+) -> tuple[list[dict], list[str]]:
+    """The records of ``profile`` in ``folder`` (of ``study``, where given) that measured what the code builds now,
+    and one line per record set aside because it did not: ``changes(record, profile)`` lists what differs from the
+    code's configs ([]: nothing; None: the record kept no configs). A model trained or scored otherwise is another
+    model. A folder whose every record is set aside warns once: it reads as if nothing were recorded."""
+    from motionlab.evaluation.studies import changes_phrase
+
+    records, set_aside = [], []
+    for path in sorted(folder.glob("*.json")):
+        record = json.loads(path.read_text())
+        if record.get("profile") != profile or (study is not None and record.get("study") != study):
+            continue
+        found = changes(record, profile)
+        if found:
+            set_aside.append(f"{path.name} (commit {record.get('commit', '?')}): {changes_phrase(found)}")
+        elif found is None:
+            set_aside.append(f"{path.name} (commit {record.get('commit', '?')}): recorded without its configs")
+        else:
+            records.append(record)
+    if set_aside and not records:
+        warnings.warn(f"every record in {folder} was set aside:\n" + "\n".join(set_aside), stacklevel=3)
+    return records, set_aside
 
 
 def read_spread(files: Iterable[Path], profile: str) -> TrainingSpread | None:
