@@ -8,6 +8,7 @@ projection a reader planning a full-scale run needs: each model's published sche
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import os
@@ -99,16 +100,18 @@ class GPURun:
         return None
 
 
+@functools.cache
 def _contains(commit: str | None, change: str) -> bool:
-    """Whether ``commit`` has ``change`` in its history (False where git cannot tell)."""
+    """Whether ``commit`` has ``change`` in its history (False where git cannot tell). Cached: a plan asks once per
+    model, and a commit's history does not change."""
     import subprocess
 
     if not commit:
         return False
-    repository = Path(__file__).resolve().parents[3]
+    here = Path(__file__).resolve().parent  # git finds the repository from inside it; a wheel has none
     try:
         found = subprocess.run(
-            ["git", "-C", str(repository), "merge-base", "--is-ancestor", change, commit], capture_output=True
+            ["git", "-C", str(here), "merge-base", "--is-ancestor", change, commit], capture_output=True
         )
     except OSError:  # no git
         return False

@@ -296,15 +296,14 @@ def scale_points(study: ScaleStudy, key: str) -> list[tuple[float, Estimate]]:
     return [(m, study.results(m)[key].estimate) for m in study.multiples if key in study.results(m)]
 
 
-SCALE_MARKER = {"marker": "D", "mfc": "none", "ms": 4, "ls": "none", "capsize": 2}  # the scale study's points
+_SCALE_MARKER = {"marker": "D", "mfc": "none", "ms": 4, "ls": "none"}  # the scale study's points: hollow diamonds
 
 
-def scale_legend_handle(where: str):
+def _scale_legend_handle(where: str):
     """The legend entry for the scale study's points: a grey hollow diamond, ``scale study (<where>)``."""
     from matplotlib.lines import Line2D
 
-    marker = {k: v for k, v in SCALE_MARKER.items() if k != "capsize"}  # a legend line has no error bars
-    return Line2D([], [], color="gray", label=f"scale study ({where})", **marker)
+    return Line2D([], [], color="gray", label=f"scale study ({where})", **_SCALE_MARKER)
 
 
 def plot_training_scale(
@@ -361,9 +360,8 @@ def plot_training_scale(
             if not points and label is not None:
                 raise KeyError(f"nothing to draw for {key!r}: the scale study recorded no {key!r}")
             beside = 1.06 if curves else 1.0  # a scale point beside a budget point at the same multiple
-            marker = {k: v for k, v in SCALE_MARKER.items() if k != "capsize"}
             multiples, estimates = [m for m, _ in points], [e for _, e in points]
-            _errorbar(ax, multiples, estimates, dodge * beside, label=label, **style, **marker)
+            _errorbar(ax, multiples, estimates, dodge * beside, label=label, **style, **_SCALE_MARKER)
             ticks |= {m: ticks.get(m, multiple_text(m)) for m, _ in points}
             drawn_scale = drawn_scale or bool(points)
         ax.axvline(1.0, color="gray", ls="--", lw=1)
@@ -375,7 +373,7 @@ def plot_training_scale(
         ax.set_title(title, fontsize=9)
         handles, _ = ax.get_legend_handles_labels()
         if drawn_scale:
-            handles.append(scale_legend_handle(scale.where_all()))
+            handles.append(_scale_legend_handle(scale.where_all()))
         if drawn_here:
             handles.append(Line2D([], [], color="gray", marker="o", ms=3, ls="none", label="this build"))
         ax.legend(handles=handles, fontsize=7, framealpha=0.8)
@@ -391,11 +389,9 @@ def _errorbar(ax, multiples: Sequence[float], estimates: Sequence[Estimate], dod
 
 __all__ = [
     "GPU_COMMAND",
-    "SCALE_MARKER",
     "chapter_claims",
     "plot_training_scale",
     "scale_changes",
-    "scale_legend_handle",
     "scale_points",
     "ScaleStudy",
     "StudyScale",
