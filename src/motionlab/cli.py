@@ -1270,7 +1270,9 @@ def build_parser() -> argparse.ArgumentParser:
         choices=["vq", "discord"],
         default="vq",
         help="token decoder (default: vq); discord: the DisCoRD decoder of the VQ tokens (not the RVQ "
-        "one of `train discord`; `train discord --tokenizer vq` trains it ahead)",
+        "one of `train discord`; `train discord --tokenizer vq` trains it ahead). At the laptop's sizes it is the "
+        "paper's velocity decoder narrower than the motion's features and trained for minutes, so its motion is "
+        "jerkier than vq's (chapter 09 measures it)",
     )
     gen.add_argument(
         "--out",
