@@ -23,9 +23,9 @@ from motionlab.diffusion import (
     token_rows,
     x0_entropy,
 )
-from motionlab.diffusion.diagnostics import EntropyCurve, token_statistics
+from motionlab.diffusion.diagnostics import token_statistics
 from motionlab.estimate import Estimate
-from motionlab.studies.diffusion_diagnostics import MarkdownTable, entropy_table, eta_distances
+from motionlab.studies.diffusion_diagnostics import MarkdownTable, eta_distances
 
 K, T = 6, 8
 ROWS = torch.tensor([[0, 0, 1, 2, 2, 2], [3, 3, -1, -1, -1, -1], [5, 4, 5, -1, -1, -1]])
@@ -110,6 +110,8 @@ def test_x0_entropy_equals_the_closed_form_for_a_fixed_denoiser_and_guidance_sha
     assert plain.entropy.tolist() == pytest.approx([_entropy(log_c)] * 2)
     assert plain.nll.tolist() == pytest.approx([float(-log_c[codes].mean())] * 2)
     assert plain.at(T) == pytest.approx((_entropy(log_c), float(-log_c[codes].mean())))
+    with pytest.raises(ValueError):
+        plain.at(2)  # a step the curve was not measured at
 
     s = 4.0
     guided = x0_entropy(model, tr, ROWS, text, guidance_scale=s, **kw)
@@ -198,18 +200,9 @@ def test_markdown_table_renders_header_rule_and_cells():
     table = MarkdownTable.of(["", "a", "b"], [["row", Estimate(1.0, 0.5, 3), "–"]])
     assert str(table).splitlines() == ["|  | a | b |", "|---|---:|---:|", "| row | 1.00 ± 0.50 | – |"]
     assert table._repr_markdown_() == str(table)
-    # a "|" inside a cell is escaped: each line keeps its three columns (the entropy table's "p(x0 | x_t)")
+    # a "|" inside a cell is escaped: each line keeps its three columns (e.g. "p(x0 | x_t)")
     piped = MarkdownTable.of(["", "p(a | b)"], [["x | y", 1]])
     assert [line.replace(r"\|", "").count("|") for line in str(piped).splitlines()] == [3, 3, 3]
-
-
-def test_entropy_table_reads_each_curve_at_one_step():
-    timesteps = (1, 4)
-    curve = EntropyCurve(timesteps, torch.tensor([0.5, 1.25]), torch.tensor([2.0, 3.5]), 0.0, "text")
-    lines = str(entropy_table({"s = 0": curve}, 4, references={"code frequencies": 1.7})).splitlines()
-    assert "x_4" in lines[0] and lines[2] == "| s = 0 | 1.25 | 3.50 |" and lines[3] == "| code frequencies | 1.70 | – |"
-    with pytest.raises(ValueError):
-        entropy_table({"s = 0": curve}, 3)  # a step the curve was not measured at
 
 
 def test_eta_distances_hold_the_tv_the_cap_and_the_table():

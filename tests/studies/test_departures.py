@@ -65,14 +65,14 @@ def test_every_row_has_all_four_columns(profile):
         assert rows and len({r.topic for r in rows}) == len(rows)
         for row in rows:
             assert all(cell.strip() for cell in row.cells()), row
-        lines = departures.to_markdown(rows, profile).splitlines()
+        lines = departures.departures_table(rows, profile).to_markdown().splitlines()
         assert lines[0].count(" | ") == 4 and f"what the {profile} build does" in lines[0]
         assert len(lines) == 2 + len(rows)
 
 
 def test_a_bar_in_a_cell_is_escaped_and_a_line_break_joined():
     row = Departure("a | b", "p(x | y)", "one\ntwo", "why", "none")
-    line = departures.to_markdown([row], "laptop").splitlines()[-1]
+    line = departures.departures_table([row], "laptop").to_markdown().splitlines()[-1]
     assert "p(x \\| y)" in line and "a \\| b" in line and "one two" in line
 
 

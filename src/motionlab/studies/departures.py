@@ -731,11 +731,6 @@ def departures_table(rows: Sequence[Departure], profile: str):
     return Table("departure", table, names)
 
 
-def to_markdown(rows: Sequence[Departure], profile: str) -> str:
-    """The rows as a Markdown table."""
-    return departures_table(rows, profile).to_markdown()
-
-
 def _join(names: Sequence[str]) -> str:
     """``*a*, *b* and *c*``: a row's name may hold an "and" of its own, so each is set apart."""
     names = [f"*{name}*" for name in names]
@@ -778,6 +773,5 @@ __all__ = [
     "m2d2m_departures",
     "substituted",
     "sweep_results",
-    "to_markdown",
     "verdict",
 ]

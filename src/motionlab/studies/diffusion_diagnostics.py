@@ -1,8 +1,7 @@
-"""Chapters 07 and 08's diffusion diagnostics as the reader sees them: the x_0 entropy table and the distance
-between M2D2M's and VQ-Diffusion's forward processes per η, with the sentence that reads it.
+"""Chapter 08's diffusion diagnostic as the reader sees it: the distance between M2D2M's and VQ-Diffusion's forward
+processes per η, with the sentence that reads it.
 
-The measurements are :mod:`motionlab.diffusion.diagnostics`' (:class:`~motionlab.diffusion.diagnostics.EntropyCurve`,
-:func:`~motionlab.diffusion.diagnostics.dynamic_uniform_tv`).
+The measurement is :func:`motionlab.diffusion.diagnostics.dynamic_uniform_tv`'s.
 """
 
 from __future__ import annotations
@@ -13,7 +12,7 @@ from dataclasses import dataclass
 from torch import Tensor
 
 from motionlab.comparison import Sentence
-from motionlab.diffusion.diagnostics import EntropyCurve, dynamic_uniform_tv
+from motionlab.diffusion.diagnostics import dynamic_uniform_tv
 from motionlab.diffusion.schedule import Schedule
 
 
@@ -34,19 +33,6 @@ class MarkdownTable(str):
 
     def _repr_markdown_(self) -> str:
         return str(self)
-
-
-def _nats(x: float) -> str:
-    return f"{x:.2f}"
-
-
-def entropy_table(curves: dict[str, EntropyCurve], t: int, references: dict[str, float] | None = None) -> MarkdownTable:
-    """One row per curve (e.g. per guidance scale, and the unconditional branch): the entropy of p_θ(x_0 | x_t)
-    and the NLL of the true code at step ``t`` (nats); ``references`` add rows with an entropy only (e.g. the
-    code frequencies' entropy, what a model that ignores context and text reaches)."""
-    rows = [[name, _nats(c.at(t)[0]), _nats(c.at(t)[1])] for name, c in curves.items()]
-    rows += [[name, _nats(value), "–"] for name, value in (references or {}).items()]
-    return MarkdownTable.of(["", f"entropy of p(x0 | x_{t}) (nats)", f"−log p(true x0 | x_{t}) (nats)"], rows)
 
 
 @dataclass(frozen=True)
