@@ -294,9 +294,11 @@ RVQ_TOKENIZER = {"smoke": {**TOKENIZER["smoke"], "num_layers": 3}, "laptop": TOK
 # two differ only in the levers DISCORD_XPRED names. What that costs (chapter 05, 160 test clips, bf16, AMD EPYC Zen 4,
 # 2026-12-07): sJPE 3.50 against the feed-forward decoder's 1.45 and the variant's 1.38. Below the motion's 263 features
 # a velocity U-Net cannot see part of its start noise (a t = 0 loss floor of (263 - 128)/263 = 0.51, study s1), so at
-# this width the paper's decoder does not hold at any budget; a width above 263 costs about 4.5 times as much per step,
-# more than the build's 30 minutes allow. Normalisation stays the tokenizer's ("std", not feat_bias): study s7 (Where
-# the laptop departs from the papers) weighs each departure.
+# this width the paper's decoder does not hold at any budget. Above 263 only the budget bars it: study s1 trained it at
+# width 272 for 40 minutes of one core (v-40min, validation, bf16); at temperature 1 it still scored sJPE 2.66 against
+# the feed-forward decoder's 1.44, from zero noise it fell below 1.44 within 10 minutes. It trains a third as many steps
+# per minute as width 128, more than the build's 30 minutes allow. Normalisation stays the tokenizer's ("std", not
+# feat_bias): study s7 (Where the laptop departs from the papers) weighs each departure.
 DISCORD_DECODER = {
     "smoke": {
         "code_dim": 16,
