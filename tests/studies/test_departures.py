@@ -148,3 +148,21 @@ def test_the_page_is_a_study_of_the_book():
     assert page["metadata"]["motionlab"]["run_last"]  # it reads what the chapters recorded
     for linking in ("99_what_reproduces", "98_full_scale"):
         assert "s7_departures.ipynb" in (ROOT / "notebooks" / f"{linking}.ipynb").read_text()
+
+
+def test_the_width_row_reads_the_paper_decoder_above_its_floor():
+    def runs(*sjpe: float) -> dict:
+        return {"runs": [{"sjpe": value} for value in sjpe]}
+
+    run = {
+        "config": {"width": 272},
+        "budget_s": 2400.0,
+        "feed_forward": {"sjpe": 1.44},
+        "checkpoints": [{"samplings": {"T1": runs(2.6, 2.7, 2.65), "T0": runs(1.23)}}],
+    }
+    without = _row(departures.discord_departures("laptop", NOTHING), "U-Net width")
+    assert "At width" not in without.why  # no run of it in this checkout: the cell says nothing of it
+    measured = Measurements(recorded={}, sweep_today={departures.PAPER_WIDTH_RUN: run})
+    row = _row(departures.discord_departures("laptop", measured), "U-Net width")
+    assert row.why.startswith(without.why) and "At width 272, where the floor is 0" in row.why
+    assert "2.65 ± " in row.why and "at T1 and 1.23 from zero noise, feed-forward 1.44" in row.why

@@ -30,7 +30,7 @@ from motionlab.report.claims import CLAIMS
 from motionlab.report.quantities import quantity
 from motionlab.report.rules import Claim, Rule
 from motionlab.report.scale import ScaleStudy, load_scale_study, study_scale
-from motionlab.report.spread import TrainingSpread, find_folder, load_spread
+from motionlab.report.spread import TrainingSpread, embedded_data_folder, find_folder, load_spread
 from motionlab.report.store import MISSING, Result, load_all
 
 # Links to the pages that hold each measurement (relative: the page sits beside them in notebooks/).
@@ -68,6 +68,8 @@ _OWN_TEXT_ONLY = ("tps/fid_ts50", "tps/jerk_tps_uniform")
 _DYNAMIC_VS_UNIFORM = ("transitions/fid_dynamic", "tps/jerk_tps_uniform")
 
 SWEEP_FOLDER = ("book", "data", "discord_sweep", "embedded-v2")  # study s1's first sweep: the widths, feat_bias
+SWEEPS = ("book", "data", "discord_sweep")  # study s1's sweeps; the current data's is embedded-v<N>
+PAPER_WIDTH_RUN = "v-40min"  # s1's run of the paper's decoder above the motion's features, on the current data
 VARIANT_SCALE_FOLDER = ("book", "data", "scale", "embedded-v3", "xpred-variant")  # the x-prediction variant's points
 SWEEP_SAMPLING = "T1"  # the paper's sampling: start noise at temperature 1
 
@@ -223,6 +225,8 @@ class Measurements:
     spread: TrainingSpread | None = None  # the training-seed study, as the claims table judges with it
     # study s1's first decoder sweep, by variant (:func:`motionlab.studies.sweep.load_sweep`)
     sweep: Mapping[str, dict] | None = None
+    # study s1's runs on the current embedded data (the paper's decoder at width 272 among them)
+    sweep_today: Mapping[str, dict] | None = None
     scale: ScaleStudy | None = None  # the scale study of the paper's decoder and the text-to-motion models
     variant_scale: ScaleStudy | None = None  # the x-prediction variant's scale points (:func:`load_variant_scale`)
     budget: BudgetStudy | None = None  # the M2D2M budget study
@@ -234,11 +238,12 @@ class Measurements:
         from motionlab.studies.sweep import load_sweep
 
         budget = load_budget(profile)
-        sweep_folder = find_folder(SWEEP_FOLDER)
+        sweep_folder, today_folder = find_folder(SWEEP_FOLDER), embedded_data_folder(SWEEPS)
         return cls(
             recorded=load_all(profile),
             spread=load_spread(profile),
             sweep=load_sweep(sweep_folder) if sweep_folder is not None else None,
+            sweep_today=load_sweep(today_folder) if today_folder is not None and today_folder.is_dir() else None,
             scale=load_scale_study(profile),
             variant_scale=load_variant_scale(profile),
             budget=budget,
@@ -350,6 +355,22 @@ def _sweep_why(study: Mapping[str, dict] | None, variants: Mapping[str, Sequence
     )
 
 
+def _paper_width(today: Mapping[str, dict] | None) -> str:
+    """What study s1's run of the paper's decoder above the motion's features scored (\"\" where it is not here)."""
+    from motionlab.studies.sweep import estimate
+
+    if today is None or PAPER_WIDTH_RUN not in today:
+        return ""
+    run = today[PAPER_WIDTH_RUN]
+    width, minutes, ff = run["config"]["width"], run["budget_s"] / 60, Estimate(run["feed_forward"]["sjpe"])
+    return (
+        f". At width {width}, where the floor is 0, the paper's decoder trained {minutes:.0f} minutes on today's data "
+        f"(`{PAPER_WIDTH_RUN}`) scores validation sJPE {estimate(run, SWEEP_SAMPLING, 'sjpe')} at {SWEEP_SAMPLING} "
+        f"and {estimate(run, 'T0', 'sjpe')} from zero noise, feed-forward {ff}: above the floor the budget is what "
+        "is left"
+    )
+
+
 def _sweep_settings(study: Mapping[str, dict] | None, variants: Mapping[str, str]) -> list[Setting]:
     """A setting per sweep variant present (label -> variant)."""
     if study is None:
@@ -420,20 +441,19 @@ def discord_departures(profile: str, measured: Measurements) -> list[Departure]:
 
     # U-Net width: s1's sweep trained the same decoder at two widths for the same minutes
     floors = f"{noise_floor(paper):.2f} at the paper's width and {noise_floor(build):.2f} at the build's"
-    rows.append(
-        _sweep_departure(
-            "U-Net width",
-            _width(paper),
-            _width(build),
-            measured,
-            {"width 128": "x-w128", "width 64": "x-w64"},
-            ("v", "x-w128", "x-w64"),
-            "A narrower network trains more steps in the same minutes. Below the motion's "
-            f"{build.feature_dim} features a velocity U-Net cannot see part of its start noise: the t = 0 loss has a "
-            f"floor (D − w)/D of {floors}, whatever the budget (study s1); the x-prediction lever has none",
-            "s1's sweep, x-prediction, temperature 1",
-        )
+    width = _sweep_departure(
+        "U-Net width",
+        _width(paper),
+        _width(build),
+        measured,
+        {"width 128": "x-w128", "width 64": "x-w64"},
+        ("v", "x-w128", "x-w64"),
+        "A narrower network trains more steps in the same minutes. Below the motion's "
+        f"{build.feature_dim} features a velocity U-Net cannot see part of its start noise: the t = 0 loss has a "
+        f"floor (D − w)/D of {floors}, whatever the budget (study s1); the x-prediction lever has none",
+        "s1's sweep, x-prediction, temperature 1",
     )
+    rows.append(replace(width, why=width.why + _paper_width(measured.sweep_today)))
 
     # solver steps: Table E decodes the same tokens at the paper's 16 grid points and at 2
     judged = judge_settings(
