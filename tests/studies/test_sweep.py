@@ -21,6 +21,7 @@ from motionlab.studies.sweep import (
     crossing_sentence,
     estimate,
     load_sweep,
+    longest_run,
     matches_setting,
     sampling_of,
     settings_table,
@@ -181,3 +182,17 @@ def test_settings_table_sets_a_run_beside_the_paper():
     assert table.cell("steps (warm-up)", "DisCoRD (Table A)") == "481,896 (48,190)"
     assert table.cell("decode default", "DisCoRD (Table A)") == "15 midpoint steps (30 evaluations)"
     assert table.cell("decode default", "this run") == "4 euler steps (4 evaluations)"
+
+
+def test_longest_run_picks_the_largest_budget_of_a_prediction_target():
+    study = {
+        "v-short": {"config": {"prediction": "v"}, "budget_s": 600.0},
+        "x-long": {"config": {"prediction": "x"}, "budget_s": 2400.0},
+        "v-long": {"config": {"prediction": "v"}, "budget_s": 2400.0},
+        "x-short": {"config": {"prediction": "x"}, "budget_s": 600.0},
+    }
+    assert longest_run(study) == "x-long"  # a tie goes to the first in the study's order
+    assert longest_run(study, prediction="v") == "v-long"
+    assert longest_run(study, prediction="x") == "x-long"
+    with pytest.raises(ValueError, match="predicts 'eps'"):
+        longest_run(study, prediction="eps")

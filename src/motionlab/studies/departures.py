@@ -67,8 +67,8 @@ _OWN_TEXT_ONLY = ("tps/fid_ts50", "tps/jerk_tps_uniform")
 # The claims that set dynamic against uniform transitions: what the noise schedule decides.
 _DYNAMIC_VS_UNIFORM = ("transitions/fid_dynamic", "tps/jerk_tps_uniform")
 
-SWEEP_FOLDER = ("book", "data", "discord_sweep", "embedded-v2")  # study s1's first sweep: the widths, feat_bias
 SWEEPS = ("book", "data", "discord_sweep")  # study s1's sweeps; the current data's is embedded-v<N>
+SWEEP_FOLDER = (*SWEEPS, "embedded-v2")  # study s1's first sweep: the widths, feat_bias
 PAPER_WIDTH_RUN = "v-40min"  # s1's run of the paper's decoder above the motion's features, on the current data
 VARIANT_SCALE_FOLDER = ("book", "data", "scale", "embedded-v3", "xpred-variant")  # the x-prediction variant's points
 SWEEP_SAMPLING = "T1"  # the paper's sampling: start noise at temperature 1

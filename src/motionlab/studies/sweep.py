@@ -48,6 +48,15 @@ def load_sweep(folder: str | Path) -> dict[str, dict[str, Any]]:
     return found
 
 
+def longest_run(study: Mapping[str, dict[str, Any]], prediction: str | None = None) -> str:
+    """The variant of ``study`` with the largest training budget, among those predicting ``prediction`` (``"v"`` or
+    ``"x"``; None: every variant); the first in the study's order where budgets tie."""
+    runs = [v for v, result in study.items() if prediction is None or result["config"]["prediction"] == prediction]
+    if not runs:
+        raise ValueError(f"no run of the sweep predicts {prediction!r}; its runs: {', '.join(study)}")
+    return max(runs, key=lambda v: study[v]["budget_s"])
+
+
 def estimate(result: dict[str, Any], sampling: str, metric: str, checkpoint: int = -1) -> Estimate:
     """Mean and 95% interval (Student's t) of ``metric`` over the sampling seeds of one checkpoint."""
     runs = result["checkpoints"][checkpoint]["samplings"][sampling]["runs"]
@@ -275,6 +284,7 @@ __all__ = [
     "crossing_sentence",
     "estimate",
     "load_sweep",
+    "longest_run",
     "matches_setting",
     "row_name",
     "sampling_of",
