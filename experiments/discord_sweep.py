@@ -12,6 +12,11 @@ One process per variant, one torch thread each, so two variants share a 2-core m
     python experiments/discord_sweep.py --list
     python experiments/discord_sweep.py x-w128 x-w128-lr3e-3 --budget 600 &
     python experiments/discord_sweep.py x-w128 --budget 2400 --fractions 0.125 0.25 0.5 0.75 1.0 --suffix=-40min &
+    python experiments/discord_sweep.py v --budget 2400 --samplings T1 T0 --suffix=-40min &
+
+Scoring every sampling setting at every fraction takes about as long as the training itself (the 40-minute run of
+``v`` took 79 min of wall time); ``--samplings`` scores only the named ones. The first line of a run's log comes
+after the calibration and the first fraction's scores, so a quiet log for the first 25 minutes or so is not a hang.
 
 Every result goes to ``<out>/<variant>.json`` (written atomically), with the machine, the precision and the dataset
 it was measured on; one folder per version of the embedded data (``book/data/discord_sweep/embedded-v<N>/``),
@@ -84,8 +89,11 @@ SAMPLINGS: dict[str, dict] = {
 }
 
 
-def samplings_for(config) -> dict[str, dict]:
-    return {k: v for k, v in SAMPLINGS.items() if config.prediction == "x" or not v.get("final_prediction")}
+def samplings_for(prediction: str, names: list[str] | None = None) -> dict[str, dict]:
+    """The sampling settings scored for a decoder that predicts ``prediction`` ("x" or "v"): ``names`` (default:
+    every one of :data:`SAMPLINGS`), less the final-x̂1 ones, which only an x-predicting decoder has."""
+    chosen = SAMPLINGS if names is None else {k: SAMPLINGS[k] for k in names}
+    return {k: v for k, v in chosen.items() if prediction == "x" or not v.get("final_prediction")}
 
 
 def score_decoder(
@@ -98,9 +106,11 @@ def score_decoder(
     return scores, recon
 
 
-def evaluate(decoder, tokenizer, normalized, gt, dataset, evaluator, gt_embeddings, seeds: int) -> dict:
+def evaluate(
+    decoder, tokenizer, normalized, gt, dataset, evaluator, gt_embeddings, seeds: int, samplings: list[str] | None
+) -> dict:
     out = {}
-    for name, options in samplings_for(decoder.config).items():
+    for name, options in samplings_for(decoder.config.prediction, samplings).items():
         runs, recons = [], []
         for s in range(seeds):
             scores, recon = score_decoder(
@@ -189,8 +199,9 @@ def run_variant(name: str, args) -> dict:
         last = fraction == args.fractions[-1]
         with trainer.ema.apply_to(model):
             model.eval()
+            seeds = args.seeds if last else 1
             scores = evaluate(
-                model, tokenizer, normalized, gt, dataset, evaluator, gt_embeddings, args.seeds if last else 1
+                model, tokenizer, normalized, gt, dataset, evaluator, gt_embeddings, seeds, args.samplings
             )
             val_loss = val_fn(model)["loss"]
             model.train()
@@ -226,6 +237,13 @@ def main(argv=None) -> int:
     parser.add_argument("--limit", type=int, default=None, help="first N validation clips (default: all)")
     parser.add_argument("--out", type=Path, default=Path("book/data/discord_sweep/embedded-v3"))
     parser.add_argument("--suffix", default="", help="appended to the result's name, e.g. '-40min' for a longer budget")
+    parser.add_argument(
+        "--samplings",
+        nargs="+",
+        default=None,
+        help="score only these sampling settings (default: every one the variant has); scoring all of them takes "
+        "about half of a long run's wall time",
+    )
     args = parser.parse_args(argv)
     if args.list or not args.variants:
         for name, overrides in VARIANTS.items():
@@ -235,6 +253,12 @@ def main(argv=None) -> int:
     unknown = [v for v in args.variants if v not in VARIANTS]
     if unknown:
         parser.error(f"unknown variant(s) {unknown}; see --list")
+    unknown = [s for s in args.samplings or [] if s not in SAMPLINGS]
+    if unknown:
+        parser.error(f"unknown sampling(s) {unknown}; see --list")
+    for name in args.variants:
+        if args.samplings and not samplings_for({**BASE, **VARIANTS[name]}["prediction"], args.samplings):
+            parser.error(f"none of --samplings {args.samplings} applies to {name} (final x̂1 needs x-prediction)")
     if sorted(args.fractions) != args.fractions or not 0 < args.fractions[0] or args.fractions[-1] != 1.0:
         parser.error("--fractions must increase and end at 1.0")
     args.out.mkdir(parents=True, exist_ok=True)

@@ -3,6 +3,7 @@ sentences chapter 05 shows them with."""
 
 from __future__ import annotations
 
+import importlib.util
 import json
 from pathlib import Path
 
@@ -196,3 +197,41 @@ def test_longest_run_picks_the_largest_budget_of_a_prediction_target():
     assert longest_run(study, prediction="x") == "x-long"
     with pytest.raises(ValueError, match="predicts 'eps'"):
         longest_run(study, prediction="eps")
+
+
+def test_estimate_names_the_samplings_a_run_scored(sweep_folder):
+    study = load_sweep(sweep_folder)
+    assert estimate(study["v"], "T0", "sjpe").mean == pytest.approx(1.5)
+    with pytest.raises(KeyError, match="did not score sampling 'T0.5'; it scored T1, T0"):
+        estimate(study["v"], "T0.5", "sjpe")
+
+
+def _sweep_script():
+    """experiments/discord_sweep.py as a module (its sampling choice and argument checks, without training)."""
+    script = Path(__file__).resolve().parents[2] / "experiments" / "discord_sweep.py"
+    spec = importlib.util.spec_from_file_location("discord_sweep_experiment", script)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_sweep_scores_the_samplings_it_is_given():
+    sweep = _sweep_script()
+    every_v = sweep.samplings_for("v")
+    assert "T1" in every_v and not any(s.get("final_prediction") for s in every_v.values())
+    assert len(sweep.samplings_for("x")) == len(sweep.SAMPLINGS)  # only an x-predicting decoder has the final x̂1
+    assert list(sweep.samplings_for("v", ["T0", "T1", "T1-final"])) == ["T0", "T1"]
+    assert list(sweep.samplings_for("x", ["T1-final"])) == ["T1-final"]
+
+
+@pytest.mark.parametrize(
+    ("arguments", "message"),
+    [
+        (["v", "--samplings", "T2"], "unknown sampling"),
+        (["v", "--samplings", "T1-final"], "none of --samplings"),
+    ],
+)
+def test_the_sweep_refuses_samplings_it_cannot_score(arguments, message, capsys):
+    with pytest.raises(SystemExit) as stop:
+        _sweep_script().main(arguments)
+    assert stop.value.code == 2 and message in capsys.readouterr().err

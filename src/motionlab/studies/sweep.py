@@ -59,8 +59,12 @@ def longest_run(study: Mapping[str, dict[str, Any]], prediction: str | None = No
 
 def estimate(result: dict[str, Any], sampling: str, metric: str, checkpoint: int = -1) -> Estimate:
     """Mean and 95% interval (Student's t) of ``metric`` over the sampling seeds of one checkpoint."""
-    runs = result["checkpoints"][checkpoint]["samplings"][sampling]["runs"]
-    return Estimate.from_values([run[metric] for run in runs])
+    scored = result["checkpoints"][checkpoint]["samplings"]
+    if sampling not in scored:  # a run scores the samplings its --samplings named
+        raise KeyError(
+            f"{result.get('variant', 'the run')} did not score sampling {sampling!r}; it scored {', '.join(scored)}"
+        )
+    return Estimate.from_values([run[metric] for run in scored[sampling]["runs"]])
 
 
 def best_setting(
