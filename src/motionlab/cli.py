@@ -762,6 +762,13 @@ def _add_evaluate(sub) -> None:
     sampling.add_argument(
         "--guidance-scale", type=float, default=None, help="classifier-free guidance s (default: 4, M2D2M's)"
     )
+    sampling.add_argument(
+        "--guidance-on",
+        choices=["x0", "posterior"],
+        default=None,
+        help="where guidance acts: p(x0 | x_t), as VQ-Diffusion's code does, or p(x_t-1 | x_t), as M2D2M's Eq. 9 "
+        "writes (default: x0)",
+    )
 
     evaluate = sub.add_parser(
         "evaluate",

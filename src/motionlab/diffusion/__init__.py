@@ -37,7 +37,15 @@ from .posterior import (
     q_sample,
     safe_log,
 )
-from .sampling import classifier_free_guidance, denoise_step, reverse_step, sample, timestep_grid, truncate
+from .sampling import (
+    GUIDANCE_SPACES,
+    classifier_free_guidance,
+    denoise_step,
+    reverse_step,
+    sample,
+    timestep_grid,
+    truncate,
+)
 from .schedule import (
     DEFAULT_SCHEDULE,
     DEFAULT_T,
@@ -78,6 +86,7 @@ from .transitions import (
 
 __all__ = [
     "AUX_WEIGHT",
+    "GUIDANCE_SPACES",
     "DEFAULT_SCHEDULE",
     "DEFAULT_T",
     "DISTANCES",

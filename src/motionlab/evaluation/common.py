@@ -115,7 +115,11 @@ _SHARED_OPTIONS = {
     "repeats": Option("--repeats"),
     "seed": Option("--seed"),
 }
-_SAMPLING_OPTIONS = {"num_steps": Option("--num-steps"), "guidance_scale": Option("--guidance-scale")}
+_SAMPLING_OPTIONS = {
+    "num_steps": Option("--num-steps"),
+    "guidance_scale": Option("--guidance-scale"),
+    "guidance_on": Option("--guidance-on"),
+}
 CLI_OPTIONS: dict[str, dict[str, Option]] = {
     "reconstruction": {
         **_SHARED_OPTIONS,
@@ -216,10 +220,14 @@ def available_memory() -> int | None:
 
 
 def _check_sampling(cfg: Any) -> None:
+    from motionlab.diffusion.sampling import GUIDANCE_SPACES
+
     if cfg.num_steps is not None:
         _check_int("num_steps", cfg.num_steps, 1)
     if cfg.guidance_scale is not None and not (math.isfinite(cfg.guidance_scale) and cfg.guidance_scale >= 0):
         raise ValueError(f"guidance_scale must be a finite number >= 0, got {cfg.guidance_scale!r}")
+    if cfg.guidance_on not in GUIDANCE_SPACES:
+        raise ValueError(f"guidance_on must be one of {GUIDANCE_SPACES}, got {cfg.guidance_on!r}")
 
 
 def default_repeats(profile: str | None = None) -> int:
@@ -310,7 +318,7 @@ def _config(config: Any, kind: type) -> Any:
 
 
 def _sampling(cfg) -> dict[str, Any]:
-    options = {"num_steps": cfg.num_steps, "guidance_scale": cfg.guidance_scale}
+    options = {"num_steps": cfg.num_steps, "guidance_scale": cfg.guidance_scale, "guidance_on": cfg.guidance_on}
     return {k: v for k, v in options.items() if v is not None}
 
 

@@ -123,7 +123,8 @@ class MultiMotionConfig:
     whose ODE ``steps``/``solver`` None keeps its config's), on ``instances`` seeded instances of ``actions``
     single-action captions (None: as many as the split's pool covers once). ``T_s`` is TPS's switch step where a
     spec gives none (None: 0.9·T); ``segment_jerk`` adds the Jerk inside the actions; ``num_steps``/``guidance_scale``
-    go to the sampler (None: all T steps, M2D2M's multi-motion s = 2)."""
+    go to the sampler (None: all T steps, M2D2M's multi-motion s = 2), and so does ``guidance_on`` (``"x0"``:
+    guidance on p_θ(x_0 | x_t), VQ-Diffusion's code; ``"posterior"``: on p_θ(x_{t-1} | x_t), Eq. 9)."""
 
     methods: tuple[str, ...] = ("tps", "independent")
     model: str = "t2m/dynamic"
@@ -136,6 +137,7 @@ class MultiMotionConfig:
     segment_jerk: bool = False
     num_steps: int | None = None
     guidance_scale: float | None = None
+    guidance_on: str = "x0"
     split: str = "test"
     repeats: int = 1
     seed: int = 0
@@ -362,7 +364,7 @@ def evaluate_multi(
     }
     notes = [
         f"Model: {cfg.model}. Decoder: {decoder_name}. Jerk is Eq. 10 at the transitions: closer to Ground Truth "
-        "(Single) is better.",
+        "(Single) is better." + (" Guidance on p_θ(x_{t-1} | x_t) (Eq. 9)." if cfg.guidance_on == "posterior" else ""),
         f"Ground-truth Jerks on all {len(everything)} instances: {ground_truth.single.size} windows inside real clips "
         f"(Single), {ground_truth.concat.size} cuts between them (Concat); each cut − the Jerk inside the two clips it "
         f"joins: {cut_minus_inside} (cut_minus_inside).",

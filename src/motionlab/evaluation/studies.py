@@ -164,12 +164,19 @@ def transitions_values(table, config) -> dict[str, Any]:
     }
 
 
+# Fields added to the evaluation configs after records were measured, with the value that does what every earlier
+# run did: a record without the field measured that value, so it is not a change.
+ADDED_FIELDS: dict[str, Any] = {"guidance_on": "x0"}
+
+
 def config_changes(recorded: dict[str, Any], current: dict[str, Any], prefix: str = "") -> list[str]:
-    """The dotted paths at which two nested config dicts differ (``"models.discord/rvq.train_steps"``), sorted."""
+    """The dotted paths at which two nested config dicts differ (``"models.discord/rvq.train_steps"``), sorted.
+
+    A field of :data:`ADDED_FIELDS` that the recorded config lacks reads as the value it had before it existed."""
     changes = []
     for key in sorted(set(recorded) | set(current)):
         path = f"{prefix}{key}"
-        a, b = recorded.get(key, _MISSING), current.get(key, _MISSING)
+        a, b = recorded.get(key, ADDED_FIELDS.get(key, _MISSING)), current.get(key, _MISSING)
         if isinstance(a, dict) and isinstance(b, dict):
             changes += config_changes(a, b, f"{path}.")
         elif a != b:
@@ -184,6 +191,44 @@ def changes_phrase(changes: list[str], shown: int = 3) -> str:
     """``"its configs differ at a.b, c and 2 more"``: why a recorded run is set aside, for a reader."""
     more = f" and {len(changes) - shown} more" if len(changes) > shown else ""
     return f"its configs differ from the code's at {', '.join(changes[:shown])}{more}"
+
+
+# ------------------------------------------------------------------------------------------- the guidance space
+# ``experiments/guidance_space.py``: the book's seed-0 text-to-motion models scored with guidance on p_θ(x_0 | x_t)
+# (VQ-Diffusion's code, the book's sampler) and on p_θ(x_{t-1} | x_t) (M2D2M's Eq. 9), at the chapters' sizes.
+def guidance_evaluations(guidance_on: str, profile: str | None = None) -> dict[str, Any]:
+    """The evaluations behind M2D2M's guided claims, sampling with guidance on ``guidance_on`` (``"x0"`` or
+    ``"posterior"``): chapter 09's multi-motion table and TPS of the uniform model (s = 2), chapter 07's guidance rows
+    (s = 0 and 4) and chapter 08's two arms (s = 4), by role, as the scale study scores its ``m2d2m`` points."""
+    from motionlab.diffusion.sampling import GUIDANCE_SPACES
+
+    if guidance_on not in GUIDANCE_SPACES:
+        raise ValueError(f"guidance_on must be one of {GUIDANCE_SPACES}, got {guidance_on!r}")
+    profile = get_profile(profile)
+    roles = {**study_plan("m2d2m", 0, profile).evaluations, **study_plan("transitions", 0, profile).evaluations}
+    return {role: replace(config, guidance_on=guidance_on) for role, config in roles.items()}
+
+
+def guidance_configs(guidance_on: str, profile: str | None = None) -> dict[str, dict[str, Any]]:
+    """What a guidance-space record's numbers depend on besides the machine: ``{"models": ..., "evaluations": ...}``
+    as JSON-ready dicts (the models of the ``m2d2m`` study, the evaluations of :func:`guidance_evaluations`)."""
+    from motionlab.train.cache import config_dict
+
+    profile = get_profile(profile)
+    evaluations = guidance_evaluations(guidance_on, profile)
+    return {
+        "models": {name: config_dict(config) for name, config in _model_configs("m2d2m", profile).items()},
+        "evaluations": {role: config_dict(config) for role, config in evaluations.items()},
+    }
+
+
+def guidance_changes(record: dict[str, Any], profile: str | None = None) -> list[str] | None:
+    """Where a guidance-space record was measured with other configs than the code builds now (dotted paths); None
+    where it holds none to compare."""
+    recorded = record.get("configs")
+    if not isinstance(recorded, dict) or "models" not in recorded or "guidance_on" not in record:
+        return None
+    return config_changes(recorded, guidance_configs(record["guidance_on"], profile))
 
 
 # ------------------------------------------------------------------------------------ the budget study and the η axis

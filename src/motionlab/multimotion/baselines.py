@@ -27,6 +27,7 @@ import torch
 from torch import Tensor, nn
 
 from motionlab.diffusion import (
+    GUIDANCE_SPACES,
     Transitions,
     classifier_free_guidance,
     gumbel_sample,
@@ -106,17 +107,17 @@ def handshake_windows(layout: SegmentLayout, transition: int = DEFAULT_TRANSITIO
     return out
 
 
-def _guided_log_p_x0(model, x, t: int, tokens, text_pad, padding_mask, guidance_scale: float) -> Tensor:
-    """log p_θ(x_0 | x_t) of a batch, with Eq. 9's guidance on x_0 (one doubled network call if guided)."""
+def _log_p_x0_branches(model, x, t: int, tokens, text_pad, padding_mask, guided: bool) -> list[Tensor]:
+    """log p_θ(x_0 | x_t) of a batch with the text, and without it when ``guided`` (one doubled network call)."""
     B = x.shape[0]
     steps = torch.full((B,), t, dtype=torch.long, device=x.device)
     model = in_precision(model, network_precision(x.device), x.device)
-    if guidance_scale == 0.0:
-        return model(x, steps, tokens, text_pad, padding_mask=padding_mask)
+    if not guided:
+        return [model(x, steps, tokens, text_pad, padding_mask=padding_mask)]
     drop = torch.cat([torch.zeros(B, dtype=torch.bool), torch.ones(B, dtype=torch.bool)]).to(x.device)
     two = lambda v: torch.cat([v, v])  # noqa: E731
     out = model(two(x), two(steps), two(tokens), two(text_pad), padding_mask=two(padding_mask), drop_text=drop)
-    return classifier_free_guidance(out[:B], out[B:], guidance_scale)
+    return [out[:B], out[B:]]
 
 
 @torch.no_grad()
@@ -131,12 +132,16 @@ def handshake_sample(
     num_steps: int | None = None,
     timesteps: Sequence[int] | None = None,
     guidance_scale: float = 0.0,
+    guidance_on: str = "x0",
     top_p: float | None = None,
     top_k: int | None = None,
     pad_id: int = -1,
 ) -> MultiMotionTokens:
     """Handshake sampling (see the module docstring): returns the same layout as :func:`two_phase_sample`, ids on
-    the model's device."""
+    the model's device. ``guidance_on="posterior"`` guides p_θ(x_{t-1} | x_t) instead of p_θ(x_0 | x_t), as
+    :func:`motionlab.diffusion.reverse_step` does: the window means are then taken with and without the text apart."""
+    if guidance_on not in GUIDANCE_SPACES:
+        raise ValueError(f"guidance_on must be one of {GUIDANCE_SPACES}, got {guidance_on!r}")
     layout = segment_layout(segment_lengths)
     tokens, text_pad = text_tensors(text, layout.n_segments)
     grid = phase_grid(transitions.T, transitions.T, num_steps, timesteps)
@@ -158,14 +163,20 @@ def handshake_sample(
     for t, t_prev in zip(grid[:-1], grid[1:], strict=True):
         x_flat = torch.cat([x.flatten(), x.new_full((1,), mask_id)])
         x_win = x_flat[gather]  # (M, w_max)
-        log_p = _guided_log_p_x0(model, x_win, t, tokens, text_pad, win_padding, guidance_scale)  # (M, w_max, K)
-        mixed = torch.zeros(dummy + 1, K, device=dev).index_add_(0, gather.flatten(), log_p.exp().flatten(0, 1))
-        mixed = mixed[:dummy] / counts[:dummy, None].clamp_min(1)  # mean over the windows covering a token
-        log_mix = truncate(mixed.clamp_min(1e-30).log().view(layout.n_instances, L_c, K), top_p, top_k)
-        if t_prev > 0:
-            step = transitions.interval(t_prev, t).to(dev)
-            cum_prev, cum_t = transitions.cumulative[t_prev].to(dev), transitions.cumulative[t].to(dev)
-            log_mix = log_p_posterior(log_mix, x, step, cum_prev, cum_t)
-        x = gumbel_sample(log_mix, generator).masked_fill(canvas_padding, mask_id)
+        branches = _log_p_x0_branches(model, x_win, t, tokens, text_pad, win_padding, guidance_scale != 0.0)
+        if len(branches) == 2 and guidance_on == "x0":
+            branches = [classifier_free_guidance(*branches, guidance_scale)]  # (M, w_max, K)
+        mixes = []
+        for log_p in branches:
+            mixed = torch.zeros(dummy + 1, K, device=dev).index_add_(0, gather.flatten(), log_p.exp().flatten(0, 1))
+            mixed = mixed[:dummy] / counts[:dummy, None].clamp_min(1)  # mean over the windows covering a token
+            log_mix = truncate(mixed.clamp_min(1e-30).log().view(layout.n_instances, L_c, K), top_p, top_k)
+            if t_prev > 0:
+                step = transitions.interval(t_prev, t).to(dev)
+                cum_prev, cum_t = transitions.cumulative[t_prev].to(dev), transitions.cumulative[t].to(dev)
+                log_mix = log_p_posterior(log_mix, x, step, cum_prev, cum_t)
+            mixes.append(log_mix)
+        log_prev = mixes[0] if len(mixes) == 1 else classifier_free_guidance(*mixes, guidance_scale)
+        x = gumbel_sample(log_prev, generator).masked_fill(canvas_padding, mask_id)
     ids = layout.split(x, mask_id).masked_fill(layout.batch_padding(dev), pad_id)
     return MultiMotionTokens(ids, layout, pad_id)
