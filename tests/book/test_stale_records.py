@@ -17,16 +17,18 @@ def test_the_committed_records_measure_the_code_as_it_is(capsys):
 
 def test_a_change_to_a_studied_model_lists_what_it_makes_stale(monkeypatch, capsys):
     """A wider feed-forward layer in the laptop denoiser: every record of a text-to-motion model goes stale (the scale
-    points, the training-seed runs of both M2D2M studies, the budget and η models); DisCoRD's stay."""
+    points, the training-seed runs of both M2D2M studies, the budget and η models, the guidance spaces); DisCoRD's
+    stay."""
     monkeypatch.setitem(sizes.DENOISER, "laptop", {**sizes.DENOISER["laptop"], "d_ff": 512})
     stale = stale_records("laptop")
     folders = {record.path.parent.parent.name for record in stale}
-    assert folders == {"scale", "training_seeds", "m2d2m_budget", "m2d2m_eta"}
+    assert folders == {"scale", "training_seeds", "m2d2m_budget", "m2d2m_eta", "guidance_space"}
     assert not any(record.path.name.startswith("discord") for record in stale)
     assert all("transformer.d_ff" in record.why for record in stale)
     assert all(re.fullmatch(r"\d+ min on .+, (bf16|fp32)", record.cost) for record in stale), [r.cost for r in stale]
     commands = {record.command.split()[2] for record in stale}  # PYTHONPATH=src python <script> ...
-    assert commands == {"experiments/scale.py", "experiments/training_seeds.py", "experiments/m2d2m_budget.py"}
+    scripts = ("scale", "training_seeds", "m2d2m_budget", "guidance_space")
+    assert commands == {f"experiments/{script}.py" for script in scripts}
     assert main(["book", "stale"]) == 1
     out = capsys.readouterr().out
     assert out.startswith(f"{len(stale)} committed laptop record(s)") and "again: PYTHONPATH=src python" in out

@@ -404,6 +404,13 @@ def test_config_changes_name_every_differing_field():
     assert config_changes(current, current) == []
 
 
+def test_a_field_added_at_its_old_value_does_not_set_a_record_aside():
+    recorded = {"evaluations": {"t2m": {"repeats": 3}}}  # measured before the configs had guidance_on
+    assert config_changes(recorded, {"evaluations": {"t2m": {"repeats": 3, "guidance_on": "x0"}}}) == []
+    changed = {"evaluations": {"t2m": {"repeats": 3, "guidance_on": "posterior"}}}
+    assert config_changes(recorded, changed) == ["evaluations.t2m.guidance_on"]  # a record never guided there
+
+
 def test_the_study_plans_name_the_models_each_seed_trains():
     assert study_plan("discord", 2, "laptop").models == ("tokenizer/rvq-seed2", "evaluator", "discord/rvq-seed2")
     assert study_plan("transitions", 0, "laptop").models == ("t2m/uniform", "t2m/dynamic")

@@ -335,6 +335,10 @@ def test_configs_validate_and_name_their_tokens():
         evaluate_multi(object(), MultiMotionConfig())
     with pytest.raises(ValueError, match="mm_repeats must be an int >= 10"):
         TextToMotionConfig(mm_repeats=5)
+    with pytest.raises(ValueError, match="guidance_on must be one of"):
+        MultiMotionConfig(guidance_on="x_t")
+    posterior = MultiMotionConfig(guidance_on="posterior", guidance_scale=2.0)
+    assert "--guidance-scale 2 --guidance-on posterior" in posterior.command_line()
 
 
 def test_reconstruction_xpred_decodes_with_the_laptop_lever(monkeypatch):

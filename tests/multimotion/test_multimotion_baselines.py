@@ -100,6 +100,21 @@ def test_handshake_keeps_the_requested_layout(tiny):
     assert out.boundaries(0) == [40]
 
 
+def test_handshake_guides_the_posterior_where_asked(tiny):
+    model, tr = tiny
+    text = torch.randn(2, 4, 8, generator=torch.Generator().manual_seed(2))
+
+    def draw(**sampling):
+        kw = dict(transition=16, num_steps=5, generator=torch.Generator().manual_seed(0))
+        return handshake_sample(model, tr, (text, None), [[40, 48]], **kw, **sampling).ids
+
+    # without guidance there is nothing to place: both spaces draw the same tokens
+    assert torch.equal(draw(guidance_scale=0.0), draw(guidance_scale=0.0, guidance_on="posterior"))
+    assert not torch.equal(draw(guidance_scale=3.0), draw(guidance_scale=3.0, guidance_on="posterior"))
+    with pytest.raises(ValueError, match="guidance_on"):
+        draw(guidance_scale=3.0, guidance_on="x_t")
+
+
 def test_independent_baseline_is_tps_without_joint_steps(tiny):
     model, tr = tiny
     text = torch.randn(3, 4, 8, generator=torch.Generator().manual_seed(2))

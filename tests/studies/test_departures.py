@@ -133,8 +133,10 @@ def test_the_committed_studies_measure_the_laptop_rows():
     discord = departures.discord_departures("laptop", measured)
     for topic in ("U-Net width", "feature normalisation"):
         assert _row(discord, topic).depends is not None  # s1's sweep judged the claims both ways
-    eta = _row(departures.m2d2m_departures("laptop", measured), "η of the dynamic transitions")
+    m2d2m = departures.m2d2m_departures("laptop", measured)
+    eta = _row(m2d2m, "η of the dynamic transitions")
     assert eta.depends is not None and "η = 0.5 (the paper's)" in eta.verdict
+    assert measured.guidance is not None and _row(m2d2m, "guidance space").depends is not None
 
 
 def test_the_page_is_a_study_of_the_book():
@@ -166,3 +168,80 @@ def test_the_width_row_reads_the_paper_decoder_above_its_floor():
     row = _row(departures.discord_departures("laptop", measured), "U-Net width")
     assert row.why.startswith(without.why) and "At width 272, where the floor is 0" in row.why
     assert "2.65 ± " in row.why and "at T1 and 1.23 from zero noise, feed-forward 1.44" in row.why
+
+
+def _guidance_records(folder: Path, values: dict[str, dict[str, float]], profile: str = "laptop") -> None:
+    """One record per guidance space in ``folder``, as experiments/guidance_space.py writes them."""
+    from motionlab.evaluation.studies import guidance_configs
+
+    for space, numbers in values.items():
+        record = {
+            "study": "guidance_space",
+            "guidance_on": space,
+            "profile": profile,
+            "cpu": "a test CPU",
+            "precision": "bf16",
+            "configs": guidance_configs(space, profile),
+            "values": {k: {"mean": v, "half_width": 0.01, "n": 3, "unit": None} for k, v in numbers.items()},
+        }
+        (folder / f"{profile}-bf16-{space}.json").write_text(json.dumps(record))
+
+
+def test_the_guidance_row_judges_the_guided_claims_in_both_spaces(tmp_path):
+    from motionlab.report.guidance import load_guidance_study
+
+    row = _row(departures.m2d2m_departures("laptop", NOTHING), "guidance space")
+    assert row.verdict.startswith(MISSING) and row.depends is None  # no study: not measured, and why
+    # Supp. Table 2: guidance lowers FID on x0 (0.5 < 0.6), not on the posterior (0.7 > 0.6); the real-motion Jerks are
+    # the same in both spaces and carry no claim of their own here
+    x0 = {"diffusion/fid_guided": 0.5, "diffusion/fid_unguided": 0.6, "tps/jerk_gt_single": 1.0}
+    _guidance_records(tmp_path, {"x0": x0, "posterior": {**x0, "diffusion/fid_guided": 0.7}})
+    study = load_guidance_study("laptop", tmp_path)
+    row = _row(departures.m2d2m_departures("laptop", Measurements({}, guidance=study)), "guidance space")
+    assert row.depends is True and "a test CPU, bf16" in row.verdict
+    assert f"Supp. Table 2 (FID, guided, s = 4): {HOLDS} (on x₀), {FAILS} (on the posterior)" in row.verdict
+    assert "Table 1, Fig. 5" not in row.verdict  # the claim on real motions only is not this row's
+    same = {"x0": x0, "posterior": x0}
+    for path in tmp_path.glob("*.json"):
+        path.unlink()
+    _guidance_records(tmp_path, same)
+    measured = Measurements({}, guidance=load_guidance_study("laptop", tmp_path))
+    row = _row(departures.m2d2m_departures("laptop", measured), "guidance space")
+    assert row.depends is False and "bf16), no: Supp. Table 2" in row.verdict
+
+
+def test_a_guidance_study_needs_both_spaces_of_the_code_configs(tmp_path):
+    from motionlab.report.guidance import load_guidance_study
+
+    numbers = {"diffusion/fid_guided": 0.5, "diffusion/fid_unguided": 0.6}
+    _guidance_records(tmp_path, {"posterior": numbers})
+    assert load_guidance_study("laptop", tmp_path) is None  # one space is no comparison
+    _guidance_records(tmp_path, {"x0": numbers})
+    study = load_guidance_study("laptop", tmp_path)
+    assert study is not None and study.results("posterior")["diffusion/fid_guided"].ci == pytest.approx((0.49, 0.51))
+    assert load_guidance_study("smoke", tmp_path) is None  # another profile's sizes
+    # a record measured with other evaluation sizes is set aside, and the pair with it
+    record = json.loads((tmp_path / "laptop-bf16-x0.json").read_text())
+    record["configs"]["evaluations"]["guidance"]["repeats"] += 1
+    (tmp_path / "laptop-bf16-x0.json").write_text(json.dumps(record))
+    assert load_guidance_study("laptop", tmp_path) is None
+
+
+def test_the_schedule_row_follows_the_paper_unless_the_profile_departs(monkeypatch):
+    row = _row(departures.m2d2m_departures("laptop", NOTHING), "noise schedule")
+    assert row.build.startswith("as the paper") and row.depends is False  # no departure, no verdict resting on it
+    assert row.verdict.startswith("none: ") and "vqdiffusion_code" in row.verdict  # the public code's still named
+    from dataclasses import replace
+
+    paper_config = departures._m2d2m_config
+
+    def public_code_schedule(profile):  # a build that noised as VQ-Diffusion's code does
+        config = paper_config(profile)
+        if profile == "full":
+            return config
+        return replace(config, transformer=replace(config.transformer, schedule="vqdiffusion_code"))
+
+    monkeypatch.setattr(departures, "_m2d2m_config", public_code_schedule)
+    row = _row(departures.m2d2m_departures("laptop", NOTHING), "noise schedule")
+    assert row.build.startswith("`vqdiffusion_code`") and row.depends is None
+    assert row.verdict.startswith("not measured by training")

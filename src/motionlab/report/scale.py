@@ -87,6 +87,12 @@ class ScaleStudy:
 
 def _record_results(record: dict, profile: str) -> dict[str, Result]:
     note = f"scale study, {multiple_text(record['multiple'])} the laptop's training samples ({record['group']})"
+    return record_results(record, profile, note)
+
+
+def record_results(record: dict, profile: str, note: str) -> dict[str, Result]:
+    """A study record's claim numbers (``"values"``: mean and 95% half-width per key, as
+    :func:`motionlab.studies.scale.estimate_json` writes them) as results the rules read, each with ``note``."""
     out = {}
     for name, value in record["values"].items():
         chapter, key = name.split("/", 1)
@@ -398,6 +404,7 @@ __all__ = [
     "load_scale_study",
     "multiple_text",
     "read_scale_records",
+    "record_results",
     "scale_study_note",
     "scale_verdicts",
     "study_scale",

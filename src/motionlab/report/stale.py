@@ -3,7 +3,8 @@
 Every study record under ``book/data/`` carries the configs it was measured with, and the book sets a record aside
 when they are no longer the code's (a change to :mod:`motionlab.sizes`, a model or an evaluation). This module asks
 the same question of every record at once, with the readers' own comparisons (:func:`~motionlab.evaluation.scale.
-point_changes`, :func:`~motionlab.evaluation.studies.budget_changes` and the training-seed study's), and says for
+point_changes`, :func:`~motionlab.evaluation.studies.budget_changes`, :func:`~motionlab.evaluation.studies.
+guidance_changes` and the training-seed study's), and says for
 each stale record the command that measures it again and what its last measurement cost. ``motionlab book stale``
 prints it; run it after changing a studied model, before committing.
 """
@@ -17,6 +18,7 @@ from pathlib import Path
 
 from .budget import ETA_FOLDER
 from .budget import FOLDER as BUDGET_FOLDER
+from .guidance import FOLDER as GUIDANCE_FOLDER
 from .scale import FOLDER as SCALE_FOLDER
 from .spread import FOLDER as SEEDS_FOLDER
 from .spread import embedded_data_folder, stale_reason
@@ -60,11 +62,11 @@ def _why(changes: list[str] | None) -> str | None:
 
 
 def stale_records(profile: str = "laptop") -> list[StaleRecord]:
-    """Every committed record of ``profile`` (scale points, training-seed runs, budget and η models) whose configs
-    differ from the code's, in that order; [] where every record measures the code as it is (or outside the
-    repository, where there are none)."""
+    """Every committed record of ``profile`` (scale points, training-seed runs, budget and η models, guidance spaces)
+    whose configs differ from the code's, in that order; [] where every record measures the code as it is (or outside
+    the repository, where there are none)."""
     from motionlab.evaluation.scale import point_changes
-    from motionlab.evaluation.studies import budget_changes
+    from motionlab.evaluation.studies import budget_changes, guidance_changes
 
     script = "PYTHONPATH=src python experiments"
     stale = []
@@ -89,6 +91,12 @@ def stale_records(profile: str = "laptop") -> list[StaleRecord]:
                     which = f"--arm {record['arm']} --seeds {record['training_seed']} --steps {record['steps']}"
                 command = f"{script}/m2d2m_budget.py {which} --profile {profile}"
                 stale.append(StaleRecord(path, why, command, _cost(record["training"].get("seconds"), record)))
+    for path, record in _records(GUIDANCE_FOLDER, profile):
+        if why := _why(guidance_changes(record, profile)):
+            command = (
+                f"{script}/guidance_space.py --spaces {record.get('guidance_on', 'x0 posterior')} --profile {profile}"
+            )
+            stale.append(StaleRecord(path, why, command, _cost(record["seconds"].get("seconds"), record)))
     return stale
 
 

@@ -25,8 +25,9 @@ from pathlib import Path
 from typing import Any
 
 from motionlab.estimate import Estimate
-from motionlab.report.budget import BudgetStudy, EtaAxis, load_budget, load_eta_axis, scale_statement
+from motionlab.report.budget import MODEL_FREE, BudgetStudy, EtaAxis, load_budget, load_eta_axis, scale_statement
 from motionlab.report.claims import CLAIMS
+from motionlab.report.guidance import GuidanceStudy, load_guidance_study
 from motionlab.report.quantities import quantity
 from motionlab.report.rules import Claim, Rule
 from motionlab.report.scale import ScaleStudy, load_scale_study, study_scale
@@ -231,6 +232,7 @@ class Measurements:
     variant_scale: ScaleStudy | None = None  # the x-prediction variant's scale points (:func:`load_variant_scale`)
     budget: BudgetStudy | None = None  # the M2D2M budget study
     eta: EtaAxis | None = None  # the M2D2M η sweep
+    guidance: GuidanceStudy | None = None  # the book's text-to-motion models scored in both guidance spaces
 
     @classmethod
     def load(cls, profile: str) -> Measurements:
@@ -248,6 +250,7 @@ class Measurements:
             variant_scale=load_variant_scale(profile),
             budget=budget,
             eta=load_eta_axis(profile, budget=budget),
+            guidance=load_guidance_study(profile),
         )
 
 
@@ -613,6 +616,15 @@ def m2d2m_departures(profile: str, measured: Measurements) -> list[Departure]:
     bound = float(code.kbeta_bar.max())
     affected = " and ".join(claim_label(c) for c in claims_reading(_DYNAMIC_VS_UNIFORM))
     book_bound = float(get_schedule(build.transformer.schedule, T).kbeta_bar.max())
+    public_code = (
+        f"under `{code.name}` the dynamic and uniform forward processes differ by at most K·β̄ = {bound:.0e} in total "
+        f"variation (here: up to {book_bound:.2g}), so {affected} would compare two all but identical models"
+    )
+    if build.transformer.schedule == paper.transformer.schedule:
+        cell, depends = no_departure("noises its tokens")
+        cell += f"; VQ-Diffusion's code would not: {public_code}"
+    else:
+        cell, depends = f"not measured by training: {public_code}", None
     rows.append(
         Departure(
             "noise schedule",
@@ -620,10 +632,8 @@ def m2d2m_departures(profile: str, measured: Measurements) -> list[Departure]:
             _build(_schedule(paper.transformer.schedule, T), _schedule(build.transformer.schedule, T)),
             f"VQ-Diffusion's public code defaults to `{code.name}`, where K·β̄ stays below {bound:.0e}: no token is "
             f"ever replaced, which is all that β(t, d) shapes — {DIFFUSION}",
-            f"not measured by training: under `{code.name}` the dynamic and uniform forward processes differ by at "
-            f"most K·β̄ = {bound:.0e} in total variation (here: up to {book_bound:.2g}), so {affected} would compare "
-            "two all but identical models",
-            None,
+            cell,
+            depends,
         )
     )
 
@@ -648,8 +658,7 @@ def m2d2m_departures(profile: str, measured: Measurements) -> list[Departure]:
                 f"classifier-free guidance on {GUIDANCE[guided]}",
             ),
             f"the code the paper builds on guides the prediction of x₀; an exercise of {DIFFUSION} samples both",
-            "not measured here: no recorded sample guides the posterior (the exercise's sampling takes minutes)",
-            None,
+            *_guidance_dependence(measured.guidance, spread),
         )
     )
 
@@ -685,6 +694,18 @@ def m2d2m_departures(profile: str, measured: Measurements) -> list[Departure]:
         )
     )
     return rows
+
+
+def _guidance_dependence(study: GuidanceStudy | None, spread: TrainingSpread | None) -> tuple[str, bool | None]:
+    """Every claim on a generated motion, judged on the book's models sampled with guidance on x₀ and on the
+    posterior (``experiments/guidance_space.py``: one machine, one precision, the chapters' sizes and seeds)."""
+    if study is None:
+        return f"{MISSING} (no guidance-space study is recorded for this profile)", None
+    on_x0, on_posterior = study.results("x0"), study.results("posterior")
+    settings = [Setting("on x₀", on_x0, {}, spread), Setting("on the posterior", on_posterior, {}, spread)]
+    claims = claims_reading(set(on_x0) - MODEL_FREE)
+    cell, depends = dependence(judge_settings(claims, settings), "the study measures none of the claims")
+    return f"the book's models sampled both ways ({study.where}), {cell}", depends
 
 
 def _budget_dependence(measured: Measurements) -> tuple[str, bool | None]:
