@@ -25,7 +25,6 @@ build trains them).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -33,11 +32,10 @@ from pathlib import Path
 import torch
 
 from motionlab import models
-from motionlab.build.stamp import machine_stamp
+from motionlab.build.stamp import machine_stamp, record_once
 from motionlab.data.embedded.generator import VERSION
 from motionlab.diffusion.sampling import GUIDANCE_SPACES
 from motionlab.evaluation.studies import guidance_configs, guidance_evaluations
-from motionlab.io.common import write_text_atomic
 from motionlab.studies.scale import SCORERS, estimate_json
 
 OUT = Path(__file__).resolve().parents[1] / "book" / "data" / "guidance_space" / f"embedded-v{VERSION}"
@@ -70,20 +68,15 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     precision = machine_stamp()["precision"]
     for space in args.spaces:
-        path = args.out / f"{args.profile}-{precision}-{space}.json"
-        if path.exists():
-            print(f"{space}: recorded already ({path})", file=sys.stderr)
-            continue
-        print(f"{space}: scoring the book's models with guidance on {space}", file=sys.stderr)
-        record = {
+        record = lambda space=space: {  # noqa: E731
             "study": "guidance_space",
             "guidance_on": space,
             "profile": args.profile,
             **machine_stamp(),
             **score(space, args.profile),
         }
-        write_text_atomic(path, json.dumps(record, indent=1) + "\n")
-        print(f"{space}: wrote {path}", file=sys.stderr)
+        path = args.out / f"{args.profile}-{precision}-{space}.json"
+        record_once(path, space, record, f"scoring the book's models with guidance on {space}")
     return 0
 
 

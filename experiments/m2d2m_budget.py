@@ -32,7 +32,6 @@ reads the folder (:func:`motionlab.report.spread.read_current`). One folder per 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -40,11 +39,10 @@ from pathlib import Path
 import torch
 
 from motionlab import models
-from motionlab.build.stamp import machine_stamp
+from motionlab.build.stamp import machine_stamp, record_once
 from motionlab.data.embedded.generator import VERSION
 from motionlab.evaluation import evaluate_multi, evaluate_t2m
 from motionlab.evaluation.studies import budget_evaluations, budget_model_config
-from motionlab.io.common import write_text_atomic
 
 ARMS = ("dynamic", "uniform")
 OUT = Path(__file__).resolve().parents[1] / "book" / "data" / "m2d2m_budget" / f"embedded-v{VERSION}"
@@ -70,6 +68,15 @@ def score(name: str, profile: str) -> dict:
     }
 
 
+DOING = "training (or loading) and scoring"
+
+
+def _measured(stamp: dict, profile: str) -> dict:
+    """One model's record: ``stamp`` (what names it), the machine, its training config and its scores."""
+    record = {**stamp, **machine_stamp()}
+    return record | {"configs": {"model": budget_model_config(record, profile)}, **score(stamp["model"], profile)}
+
+
 def eta_axis(etas: list[float], profile: str, out: Path) -> None:
     """The η axis at the profile's budget: the dynamic model at each η (``t2m/eta<η>``, training seed 0), scored like
     a budget; ``<out>/eta<η>.json`` each. The total variation from the uniform process is chapter 08's to compute."""
@@ -77,15 +84,8 @@ def eta_axis(etas: list[float], profile: str, out: Path) -> None:
 
     for eta in etas:
         name = eta_model(eta)
-        path = out / f"eta{eta:g}.json"
-        if path.exists():
-            print(f"{name}: recorded already ({path})", file=sys.stderr)
-            continue
-        print(f"{name}: training (or loading) and scoring", file=sys.stderr)
-        record = {"model": name, "eta": eta, "training_seed": 0, "profile": profile, **machine_stamp()}
-        record |= {"configs": {"model": budget_model_config(record, profile)}, **score(name, profile)}
-        write_text_atomic(path, json.dumps(record, indent=1) + "\n")
-        print(f"{name}: wrote {path}", file=sys.stderr)
+        stamp = {"model": name, "eta": eta, "training_seed": 0, "profile": profile}
+        record_once(out / f"eta{eta:g}.json", name, lambda stamp=stamp: _measured(stamp, profile), DOING)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -113,22 +113,9 @@ def main(argv: list[str] | None = None) -> int:
     for steps in args.steps:
         for seed in args.seeds:
             name = model_name(args.arm, seed, steps)
+            stamp = {"model": name, "arm": args.arm, "training_seed": seed, "steps": steps, "profile": args.profile}
             path = args.out / f"{name.removeprefix('t2m/')}.json"
-            if path.exists():
-                print(f"{name}: recorded already ({path})", file=sys.stderr)
-                continue
-            print(f"{name}: training (or loading) and scoring", file=sys.stderr)
-            record = {
-                "model": name,
-                "arm": args.arm,
-                "training_seed": seed,
-                "steps": steps,
-                "profile": args.profile,
-                **machine_stamp(),
-            }
-            record |= {"configs": {"model": budget_model_config(record, args.profile)}, **score(name, args.profile)}
-            write_text_atomic(path, json.dumps(record, indent=1) + "\n")
-            print(f"{name}: wrote {path}", file=sys.stderr)
+            record_once(path, name, lambda stamp=stamp: _measured(stamp, args.profile), DOING)
     return 0
 
 

@@ -36,7 +36,6 @@ finds there, pooling the runs of every precision.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -44,7 +43,7 @@ from pathlib import Path
 import torch
 
 from motionlab import models
-from motionlab.build.stamp import machine_stamp
+from motionlab.build.stamp import machine_stamp, record_once
 from motionlab.data.embedded.generator import VERSION
 from motionlab.evaluation import evaluate_multi, evaluate_reconstruction, evaluate_t2m
 from motionlab.evaluation.studies import (
@@ -55,7 +54,6 @@ from motionlab.evaluation.studies import (
     study_plan,
     transitions_values,
 )
-from motionlab.io.common import write_text_atomic
 
 OUT = Path(__file__).resolve().parents[1] / "book" / "data" / "training_seeds" / f"embedded-v{VERSION}"
 
@@ -129,20 +127,15 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     precision = machine_stamp()["precision"]  # a run in another precision is another run: its own file
     for seed in args.seeds:
-        path = args.out / f"{args.study}-{args.profile}-{precision}-seed{seed}.json"
-        if path.exists():
-            print(f"seed {seed}: recorded already ({path})", file=sys.stderr)
-            continue
-        print(f"{args.study} seed {seed}: training (or loading) the models and scoring them", file=sys.stderr)
-        record = {
+        record = lambda seed=seed: {  # noqa: E731
             "study": args.study,
             "training_seed": seed,
             "profile": args.profile,
             **machine_stamp(),
             **score(args.study, seed, args.profile),
         }
-        write_text_atomic(path, json.dumps(record, indent=1) + "\n")
-        print(f"seed {seed}: wrote {path}", file=sys.stderr)
+        path = args.out / f"{args.study}-{args.profile}-{precision}-seed{seed}.json"
+        record_once(path, f"{args.study} seed {seed}", record, "training (or loading) the models and scoring them")
     return 0
 
 

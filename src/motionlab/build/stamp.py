@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import json
 import platform
 import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 
@@ -29,3 +33,18 @@ def machine_stamp() -> dict[str, Any]:
         "torch_threads": torch.get_num_threads(),
         "commit": commit(),
     }
+
+
+def record_once(path: Path, name: str, measure: Callable[[], dict[str, Any]], doing: str = "measuring") -> bool:
+    """Write the record ``measure()`` returns to ``path`` as indented JSON (by one atomic rename), unless ``path``
+    holds it already: an experiment's record is measured once, and a rerun skips it. Says on stderr what ``name`` is
+    doing; True where it measured."""
+    from motionlab.io.common import write_text_atomic
+
+    if path.exists():
+        print(f"{name}: recorded already ({path})", file=sys.stderr)
+        return False
+    print(f"{name}: {doing}", file=sys.stderr)
+    write_text_atomic(path, json.dumps(measure(), indent=1) + "\n")
+    print(f"{name}: wrote {path}", file=sys.stderr)
+    return True
