@@ -5,11 +5,13 @@ from __future__ import annotations
 import importlib.util
 import json
 import re
+from dataclasses import replace
 from pathlib import Path
 
+import pytest
 import yaml
 
-from motionlab.build.build_times import ColdBuild, cold_build_line, cold_builds, cold_tests
+from motionlab.build.build_times import ColdBuild, build_phrase, cold_build_line, cold_builds, cold_tests, plan_change
 
 ROOT = Path(__file__).resolve().parents[2]
 README = (ROOT / "README.md").read_text(encoding="utf-8")
@@ -63,7 +65,9 @@ def test_readme_and_tool_quote_the_one_record_of_build_times():
     assert not _BUILD_PHRASE.findall(" ".join(INTRO.split())), "book/intro.md quotes build times"
     make_test = flat[flat.index("`make test` is") :].split(". ")[0]
     assert all(t.phrase() in make_test for t in tests)  # quoted where make test is described, not make book
-    assert all(b.phrase() in cold_build_line(ROOT) for b in builds)
+    assert all(build_phrase(b, ROOT) in cold_build_line(ROOT) for b in builds)
+    # a build that trained fewer models than today's plan is quoted with its time predicted today
+    assert all(build_phrase(b, ROOT) in flat for b in builds), "README.md quotes a build without today's prediction"
 
 
 def test_train_book_prints_the_recorded_build_times(tmp_path, monkeypatch, capsys):
@@ -71,7 +75,7 @@ def test_train_book_prints_the_recorded_build_times(tmp_path, monkeypatch, capsy
 
     monkeypatch.setenv("MOTIONLAB_HOME", str(tmp_path / "home"))
     monkeypatch.chdir(tmp_path)  # outside the repository: nothing is recorded, the build times still come from it
-    monkeypatch.setattr("motionlab.build.book_models.book_jobs", lambda profile: [])
+    monkeypatch.setattr("motionlab.build.book_models.book_jobs", lambda profile, **_: [])
     monkeypatch.setattr("motionlab.build.plan.run_plan", lambda plan, workers: [])
     args = cli.build_parser().parse_args(["train", "book", "--profile", "laptop"])
     args.settings = cli._settings(args)
@@ -96,6 +100,32 @@ def test_the_recorded_builds_match_their_per_model_records():
     trained_and_executed = expected_wall_seconds(plan, 2) + chapters["wall_seconds"]
     # the whole build adds setting up .venv and rendering to the two recorded steps, so it lasts a little longer
     assert trained_and_executed / 60 <= zen3.minutes <= trained_and_executed / 60 + 15
+
+
+def test_a_build_of_an_older_plan_is_predicted_with_todays_models(tmp_path):
+    from motionlab.build.book_models import book_jobs
+    from motionlab.build.plan import expected_wall_seconds
+
+    history = tmp_path / "book" / "data" / "build_times" / "history"
+    history.mkdir(parents=True)
+    plan = book_jobs("laptop", precision="fp32")
+    # a CPU exactly twice as slow as the estimates, which trained every model but the x-prediction lever
+    trained = {job.name: {"seconds": 2 * job.estimate_s} for job in plan if job.name != "discord/rvq-xpred"}
+    (history / "abc1234-zen3-fp32-training.json").write_text(json.dumps(trained))
+    build = ColdBuild("AMD EPYC Zen 3, AVX2 only", "fp32", 60.0, commit="abc1234")
+    change = plan_change(build, tmp_path)
+    assert change is not None and change.added == ("discord/rvq-xpred",)
+    doubled = [replace(job, estimate_s=2 * job.estimate_s) for job in plan]
+    grown = expected_wall_seconds(doubled, 2) - expected_wall_seconds([j for j in doubled if j.name in trained], 2)
+    assert change.minutes == pytest.approx(60.0 + grown / 60) and grown > 0
+    assert build_phrase(build, tmp_path) == (
+        f"about 60 min on an AMD EPYC Zen 3, AVX2 only (fp32) without discord/rvq-xpred "
+        f"({round(change.minutes)}+ min with it, predicted)"
+    )
+    trained["discord/rvq-xpred"] = {"seconds": 1.0}  # today's plan: quoted as measured
+    (history / "abc1234-zen3-fp32-training.json").write_text(json.dumps(trained))
+    assert plan_change(build, tmp_path) is None and build_phrase(build, tmp_path) == build.phrase()
+    assert plan_change(ColdBuild("a CPU", "fp32", 60.0), tmp_path) is None  # no commit: no per-model record to read
 
 
 def test_a_build_reads_as_the_pages_quote_it(tmp_path):

@@ -140,12 +140,18 @@ def is_cached(run) -> bool:
 
 
 def book_jobs(
-    profile: str | None = None, seed: int = 0, *, data: str | None = None, flow_options: dict | None = None
+    profile: str | None = None,
+    seed: int = 0,
+    *,
+    data: str | None = None,
+    flow_options: dict | None = None,
+    precision: str | None = None,
 ) -> list[Job]:
     """The book's models for ``profile``, in a valid training order (inputs first).
 
     ``data`` trains them on a dataset folder instead of the embedded data; ``flow_options`` override the
-    config of the two ``stacked`` DisCoRD decoders (what ``train discord --predict ...`` does).
+    config of the two ``stacked`` DisCoRD decoders (what ``train discord --predict ...`` does). The jobs' time
+    estimates are for ``precision`` (default: what this machine trains in).
     """
     from ..precision import network_precision
     from ..report.gpu import newest_gpu_run
@@ -153,7 +159,7 @@ def book_jobs(
 
     profile = get_profile(profile)
     device = get_device(None)
-    precision = network_precision(device)
+    precision = precision or network_precision(device)
     cost = training_estimates(profile, precision)
     gpu_run = newest_gpu_run() if device.type == "cuda" else None  # what compiling took there
     on = {"data": data}
