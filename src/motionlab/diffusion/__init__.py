@@ -39,6 +39,7 @@ from .posterior import (
 )
 from .sampling import (
     GUIDANCE_SPACES,
+    check_guidance_space,
     classifier_free_guidance,
     denoise_step,
     reverse_step,
@@ -98,6 +99,7 @@ __all__ = [
     "TransformerConfig",
     "Transitions",
     "build_transitions",
+    "check_guidance_space",
     "classifier_free_guidance",
     "codebook_distance",
     "denoise_step",

@@ -150,12 +150,17 @@ def _model_log_p_x0(
     return log_c, log_u
 
 
+def check_guidance_space(guidance_on: str) -> None:
+    """Reject a guidance space other than :data:`GUIDANCE_SPACES` (every sampler and config that takes one)."""
+    if guidance_on not in GUIDANCE_SPACES:
+        raise ValueError(f"guidance_on must be one of {GUIDANCE_SPACES}, got {guidance_on!r}")
+
+
 def _check_denoise_step_inputs(transitions: Transitions, t: int, t_prev: int, guidance_on: str) -> None:
     """Reject steps outside ``0 <= t_prev < t <= T`` and an unknown guidance space."""
     if not (0 <= t_prev < t <= transitions.T):
         raise ValueError(f"need 0 <= t_prev < t <= T={transitions.T}, got t={t}, t_prev={t_prev}")
-    if guidance_on not in GUIDANCE_SPACES:
-        raise ValueError(f"guidance_on must be one of {GUIDANCE_SPACES}, got {guidance_on!r}")
+    check_guidance_space(guidance_on)
 
 
 def reverse_step(

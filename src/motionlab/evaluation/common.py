@@ -220,14 +220,13 @@ def available_memory() -> int | None:
 
 
 def _check_sampling(cfg: Any) -> None:
-    from motionlab.diffusion.sampling import GUIDANCE_SPACES
+    from motionlab.diffusion.sampling import check_guidance_space
 
     if cfg.num_steps is not None:
         _check_int("num_steps", cfg.num_steps, 1)
     if cfg.guidance_scale is not None and not (math.isfinite(cfg.guidance_scale) and cfg.guidance_scale >= 0):
         raise ValueError(f"guidance_scale must be a finite number >= 0, got {cfg.guidance_scale!r}")
-    if cfg.guidance_on not in GUIDANCE_SPACES:
-        raise ValueError(f"guidance_on must be one of {GUIDANCE_SPACES}, got {cfg.guidance_on!r}")
+    check_guidance_space(cfg.guidance_on)
 
 
 def default_repeats(profile: str | None = None) -> int:

@@ -199,13 +199,11 @@ def changes_phrase(changes: list[str], shown: int = 3) -> str:
 def guidance_evaluations(guidance_on: str, profile: str | None = None) -> dict[str, Any]:
     """The evaluations behind M2D2M's guided claims, sampling with guidance on ``guidance_on`` (``"x0"`` or
     ``"posterior"``): chapter 09's multi-motion table and TPS of the uniform model (s = 2), chapter 07's guidance rows
-    (s = 0 and 4) and chapter 08's two arms (s = 4), by role, as the scale study scores its ``m2d2m`` points."""
-    from motionlab.diffusion.sampling import GUIDANCE_SPACES
+    (s = 0 and 4) and chapter 08's two arms (s = 4), by role: the scale study's ``m2d2m`` evaluations. Each config
+    checks ``guidance_on``."""
+    from .scale import group_evaluations
 
-    if guidance_on not in GUIDANCE_SPACES:
-        raise ValueError(f"guidance_on must be one of {GUIDANCE_SPACES}, got {guidance_on!r}")
-    profile = get_profile(profile)
-    roles = {**study_plan("m2d2m", 0, profile).evaluations, **study_plan("transitions", 0, profile).evaluations}
+    roles = group_evaluations("m2d2m", profile)
     return {role: replace(config, guidance_on=guidance_on) for role, config in roles.items()}
 
 

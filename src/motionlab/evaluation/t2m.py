@@ -142,10 +142,9 @@ class TextToMotionConfig:
         object.__setattr__(self, "guidance_scales", scales)
         if self.guidance_scale is not None:
             object.__setattr__(self, "guidance_scale", _scale(self.guidance_scale, "guidance_scale"))
-        from motionlab.diffusion.sampling import GUIDANCE_SPACES
+        from motionlab.diffusion.sampling import check_guidance_space
 
-        if self.guidance_on not in GUIDANCE_SPACES:
-            raise ValueError(f"guidance_on must be one of {GUIDANCE_SPACES}, got {self.guidance_on!r}")
+        check_guidance_space(self.guidance_on)
         top_p = self.top_p
         if top_p is not None and (isinstance(top_p, bool) or not isinstance(top_p, (int, float)) or not 0 < top_p <= 1):
             raise ValueError(f"top_p must be in (0, 1], got {self.top_p!r}")

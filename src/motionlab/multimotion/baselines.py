@@ -27,8 +27,8 @@ import torch
 from torch import Tensor, nn
 
 from motionlab.diffusion import (
-    GUIDANCE_SPACES,
     Transitions,
+    check_guidance_space,
     classifier_free_guidance,
     gumbel_sample,
     log_p_posterior,
@@ -140,8 +140,7 @@ def handshake_sample(
     """Handshake sampling (see the module docstring): returns the same layout as :func:`two_phase_sample`, ids on
     the model's device. ``guidance_on="posterior"`` guides p_θ(x_{t-1} | x_t) instead of p_θ(x_0 | x_t), as
     :func:`motionlab.diffusion.reverse_step` does: the window means are then taken with and without the text apart."""
-    if guidance_on not in GUIDANCE_SPACES:
-        raise ValueError(f"guidance_on must be one of {GUIDANCE_SPACES}, got {guidance_on!r}")
+    check_guidance_space(guidance_on)
     layout = segment_layout(segment_lengths)
     tokens, text_pad = text_tensors(text, layout.n_segments)
     grid = phase_grid(transitions.T, transitions.T, num_steps, timesteps)
@@ -166,14 +165,15 @@ def handshake_sample(
         branches = _log_p_x0_branches(model, x_win, t, tokens, text_pad, win_padding, guidance_scale != 0.0)
         if len(branches) == 2 and guidance_on == "x0":
             branches = [classifier_free_guidance(*branches, guidance_scale)]  # (M, w_max, K)
+        if t_prev > 0:  # q(x_t | x_{t_prev}), shared by both branches
+            step = transitions.interval(t_prev, t).to(dev)
+            cum_prev, cum_t = transitions.cumulative[t_prev].to(dev), transitions.cumulative[t].to(dev)
         mixes = []
         for log_p in branches:
             mixed = torch.zeros(dummy + 1, K, device=dev).index_add_(0, gather.flatten(), log_p.exp().flatten(0, 1))
             mixed = mixed[:dummy] / counts[:dummy, None].clamp_min(1)  # mean over the windows covering a token
             log_mix = truncate(mixed.clamp_min(1e-30).log().view(layout.n_instances, L_c, K), top_p, top_k)
             if t_prev > 0:
-                step = transitions.interval(t_prev, t).to(dev)
-                cum_prev, cum_t = transitions.cumulative[t_prev].to(dev), transitions.cumulative[t].to(dev)
                 log_mix = log_p_posterior(log_mix, x, step, cum_prev, cum_t)
             mixes.append(log_mix)
         log_prev = mixes[0] if len(mixes) == 1 else classifier_free_guidance(*mixes, guidance_scale)
