@@ -20,11 +20,14 @@ Given the official repositories (never vendored: ``fetch`` them beside the proje
 rounds: ``--official-discord PATH`` (whwjdqls/DisCoRD: ``Unet1DforFlowDecoder`` trained on the same batches, and
 decoded with ``torchdiffeq.odeint(method="midpoint")`` as its ``sample`` does), ``--official-momask PATH``
 (EricGuo5513/momask-codes: ``RVQVAE``). Timing follows ``benchmarks/_timing.py`` with the device synchronised
-around every timed call. ``--smoke`` runs everything at the smoke sizes on the CPU in seconds (the test does this).
+around every timed call. ``--smoke`` runs everything at the smoke sizes on the CPU in seconds (the test does this);
+``--profile laptop`` times the book's laptop models instead of the papers' (a CPU comparison of two settings of one
+step, e.g. ``MOTIONLAB_COMPILE=on`` against ``off``, at the sizes the build trains).
 
     PYTHONPATH=src python benchmarks/bench_gpu.py --json $OUT/gpu.json                        # on a GPU
     PYTHONPATH=src python benchmarks/bench_gpu.py --official-discord ../DisCoRD --official-momask ../momask-codes
     .venv/bin/python benchmarks/bench_gpu.py --smoke --json _build/benchmarks/gpu-smoke.json  # CPU, seconds
+    .venv/bin/python benchmarks/bench_gpu.py --device cpu --profile laptop --sections train --models discord
 """
 
 from __future__ import annotations
@@ -462,6 +465,13 @@ def print_records(records: list[dict]) -> None:
 def main(argv: list[str] | None = None) -> list[dict]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--smoke", action="store_true", help="smoke sizes on the CPU, a few seconds (the test)")
+    parser.add_argument(
+        "--profile",
+        choices=("laptop", "full"),
+        default=None,
+        help="the sizes of the models timed (default: full, the papers'); laptop: the book's, to compare variants of "
+        "its steps on a CPU",
+    )
     parser.add_argument("--device", default=None, help="default: cuda when present, else cpu")
     parser.add_argument(
         "--sections", nargs="+", default=["peak", "train", "decode"], choices=["peak", "train", "decode"]
@@ -492,7 +502,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
     if problems := official_problems(args):
         parser.error("; ".join(problems))
     device = torch.device(args.device or ("cuda" if torch.cuda.is_available() and not args.smoke else "cpu"))
-    args.profile = "smoke" if args.smoke else "full"
+    if args.smoke and args.profile:
+        parser.error(f"--smoke times the smoke sizes: leave out --profile {args.profile}")
+    args.profile = "smoke" if args.smoke else args.profile or "full"
     args.compile = device.type == "cuda" if args.compile is None else args.compile
     args.graphs = (["t2m"] if device.type == "cuda" else []) if args.graphs is None else args.graphs
     if device.type == "cpu":

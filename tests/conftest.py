@@ -72,7 +72,11 @@ RUN_SETTINGS = (
 def idle_machine(monkeypatch):
     """Time estimates as on an idle machine: the plan line adds what the load seen now makes of an estimate
     (:func:`motionlab.build.plan.load_slowdown`), and a test's text must not depend on what else the CI machine
-    runs. Tests of the load's effect set their own load average."""
+    runs. The load is read as the 1-minute average here (no /proc sample); tests of the load's effect set their
+    own average."""
+    from motionlab import settings
+
+    monkeypatch.setattr(settings, "running_tasks", lambda *args, **kwargs: [])
     monkeypatch.setattr(os, "getloadavg", lambda: (0.0, 0.0, 0.0))
 
 

@@ -972,7 +972,7 @@ def _settings(args: argparse.Namespace):
     that worker processes and chapter kernels inherit them); every command reads them from ``args.settings``."""
     from .precision import explain_precision
     from .profiles import env_threads
-    from .settings import MAX_THREADS, apply_settings, resolve_settings, threads_for_load
+    from .settings import MAX_THREADS, apply_settings, cpu_load, resolve_settings, threads_for_load
     from .train.device import get_device
 
     if args.threads is not None and not 1 <= args.threads <= MAX_THREADS:
@@ -984,9 +984,11 @@ def _settings(args: argparse.Namespace):
     threads = args.threads if args.threads is not None else env_threads()
     # The commands that run models here choose by the load; the others (book's kernels) keep their own choice, 1
     runs_models = getattr(args, "command", None) in ("train", "generate", "evaluate")
-    if threads is None and runs_models and (threads := threads_for_load()) is not None:
+    load = cpu_load() if threads is None and runs_models else None
+    if (threads_now := threads_for_load(load)) is not None:
+        threads = threads_now
         print(
-            f"note: other programs are using the CPU (load {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores): "
+            f"note: other programs are using the CPU (load {load:.1f} on {os.cpu_count()} cores): "
             f"{threads} torch thread{'s' * (threads > 1)}, which is faster then; --threads N chooses",
             file=sys.stderr,
         )

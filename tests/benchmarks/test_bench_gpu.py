@@ -37,6 +37,24 @@ def test_the_smoke_run_records_every_section(bench_gpu, tmp_path, capsys):
     assert "smoke" not in gpu_tables(run) and "| DisCoRD decoder | fp32 | module |" in gpu_tables(run)
 
 
+def test_the_laptop_profile_times_the_books_models(bench_gpu, tmp_path):
+    from motionlab.sizes import DISCORD_DECODER
+
+    out = tmp_path / "gpu.json"
+    argv = ["--device", "cpu", "--profile", "laptop", "--sections", "train", "--models", "discord"]
+    bench_gpu.main([*argv, "--precisions", "fp32", "--repeats", "1", "--steps", "1", "--json", str(out)])
+    records = json.loads(out.read_text())
+    assert [r["profile"] for r in records if r["section"] == "machine"] == ["laptop"]
+    train = [r for r in records if r["section"] == "train"]
+    assert {r["batch"] for r in train} == {DISCORD_DECODER["laptop"]["batch_size"]}
+
+
+def test_smoke_and_another_profile_do_not_mix(bench_gpu, capsys):
+    with pytest.raises(SystemExit):
+        bench_gpu.main(["--smoke", "--profile", "laptop", "--sections", "peak"])
+    assert "leave out --profile laptop" in capsys.readouterr().err
+
+
 def test_official_modules_need_their_repositories(bench_gpu, tmp_path):
     with pytest.raises(FileNotFoundError):
         bench_gpu.official_discord_unet(tmp_path, None)

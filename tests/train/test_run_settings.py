@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 import torch
 
-from motionlab.settings import RunSettings, apply_settings, resolve_settings
+from motionlab.settings import RunSettings, apply_settings, resolve_settings, running_tasks
 from motionlab.train.compiling import (
     GRAPHED,
     GRAPHED_ON_CUDA,
@@ -78,3 +78,25 @@ def test_a_trained_model_is_handed_back_uncompiled():
     assert model[0]._compiled_call_impl is not None
     release_compiled(model)
     assert all(m._compiled_call_impl is None for m in model.modules())
+
+
+def test_the_load_is_what_wants_a_core_now_not_the_last_minute(monkeypatch, tmp_path):
+    import os
+
+    from motionlab import settings
+    from motionlab.build.plan import load_slowdown
+
+    loadavg = tmp_path / "loadavg"
+    loadavg.write_text("1.21 0.80 0.41 3/129 3941\n")  # the minute remembers a finished install; 3 runnable now
+    assert running_tasks(seconds=0.05, every=0.01, source=str(loadavg))[:2] == [3, 3]
+    assert running_tasks(source=str(tmp_path / "absent")) == []
+
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(os, "getloadavg", lambda: (1.2, 0.8, 0.4))
+    monkeypatch.setattr(settings, "running_tasks", lambda: [1, 1, 2, 1])  # this process, and a short task once
+    assert settings.cpu_load() == 0.25  # the samples' mean less the reader itself, not the minute's 1.2
+    assert settings.threads_for_load(settings.cpu_load()) is None and load_slowdown(2)[0] == 1.125
+    monkeypatch.setattr(settings, "running_tasks", lambda: [3, 3, 3, 3])  # two busy programs beside the reader
+    assert settings.cpu_load() == 2.0 and settings.threads_for_load(2.0) == 1 and load_slowdown(2) == (2.0, 2.0, 2)
+    monkeypatch.setattr(settings, "running_tasks", lambda: [])  # no /proc (macOS): the minute's average
+    assert settings.cpu_load() == 1.2

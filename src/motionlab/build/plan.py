@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from typing import Any, TextIO
 
 from ..interrupts import DeferredInterrupt
+from ..settings import cpu_load
 from ..train.progress import add_progress_hook, disable_bars
 from .workers import elapsed_stamp, interrupt_when_orphaned, native_threads_for_children
 
@@ -97,12 +98,11 @@ def plan_line(jobs: Sequence[Job], workers: int = 1) -> str:
 
 def load_slowdown(workers: int = 1) -> tuple[float, float, int]:
     """How many times longer than on an idle machine ``workers`` one-thread processes take now, with the load and
-    the cores it is read from: the 1-minute load average's processes share the cores with them (1.0 where the load
-    cannot be read, or the cores are enough for all)."""
+    the cores it is read from: the other tasks that want a core now (:func:`motionlab.settings.cpu_load`) share the
+    cores with them (1.0 where the load cannot be read, or the cores are enough for all)."""
     cores = os.cpu_count() or 1
-    try:
-        load = os.getloadavg()[0]
-    except (AttributeError, OSError):  # not on every platform
+    load = cpu_load()
+    if load is None:
         return 1.0, 0.0, cores
     return max(1.0, (load + workers) / cores), load, cores
 
