@@ -83,6 +83,25 @@ BF16_SPEEDUP: dict[str, float] = {
 }
 
 
+# The laptop models in bf16, measured: seconds per model of each kind, the largest over the cold builds recorded on the
+# slowest CPU measured in bf16, an AMD EPYC Zen 4 with AVX512-BF16 (two 1-thread workers; history/1193b88- and
+# 79de014-zen4-bf16-training.json under book/data/build_times). Wall seconds, starting the worker included: a
+# reader waits for those. The fp32 estimates over BF16_SPEEDUP said 1,000 s for chapter 05's decoder, which took
+# 610-659 s there: Zen 3, the fp32 reference, is also the slower CPU in fp32, which the speed-up (measured on one CPU
+# in both precisions) leaves out, and the plan line promised about 31 min of training where 21-23 passed.
+MEASURED_BF16_S: dict[str, dict[str, float]] = {
+    "laptop": {
+        "data": 50,
+        "tokenizer": 166,
+        "toy_flow": 31,
+        "evaluator": 97,
+        "discord": 660,
+        "discord_short": 122,
+        "t2m": 148,
+    },
+}
+
+
 def compile_estimate(name: str, device, precision: str, run) -> float | None:
     """Seconds the book's model ``name`` spends compiling before it trains on ``device`` under the run's compile
     setting: 0 where nothing compiles, the compile time ``run`` (a GPU benchmark's run, or None) measured, None where
@@ -105,10 +124,14 @@ def job_precision(name: str, run_precision: str) -> str:
 
 
 def training_estimates(profile: str, precision: str) -> dict[str, float]:
-    """Training CPU seconds per kind of model for ``profile`` trained in ``precision`` (``fp32`` | ``bf16``)."""
-    cost = ESTIMATES_S[get_profile(profile)]
+    """Training CPU seconds per kind of model for ``profile`` trained in ``precision`` (``fp32`` | ``bf16``): the
+    slowest CPU measured in that precision where a build measured it, else the fp32 estimate over the speed-up."""
+    profile = get_profile(profile)
+    cost = ESTIMATES_S[profile]
     if precision == "fp32":
         return dict(cost)
+    if profile in MEASURED_BF16_S:
+        return dict(MEASURED_BF16_S[profile])
     return {kind: seconds / BF16_SPEEDUP[kind] for kind, seconds in cost.items()}
 
 
@@ -276,6 +299,7 @@ __all__ = [
     "BF16_SPEEDUP",
     "CHAPTER_MODELS",
     "ESTIMATES_S",
+    "MEASURED_BF16_S",
     "book_jobs",
     "chapter_costs",
     "is_cached",
