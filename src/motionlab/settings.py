@@ -137,7 +137,8 @@ def cpu_load() -> float | None:
 
     Why not the 1-minute average alone: it remembers tasks that have ended. In a cold ``make book`` on a 2-core AMD
     EPYC (Zen 4), the set-up's ``pip install`` had just finished, the average read 1.2, and ``train book`` said other
-    programs were using the CPU and promised "up to 49.8 min" for a training that took 21.
+    programs were using the CPU and promised "up to 49.8 min" for a training that took 21-23 min in the builds
+    recorded on that CPU.
     """
     samples = running_tasks()
     if samples:
