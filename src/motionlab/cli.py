@@ -982,8 +982,10 @@ def _settings(args: argparse.Namespace):
             raise ValueError("--force-precision insists on a --precision; give one")
         os.environ["MOTIONLAB_FORCE_PRECISION"] = "1"  # exported: workers and chapter kernels insist too
     threads = args.threads if args.threads is not None else env_threads()
-    # The commands that run models here choose by the load; the others (book's kernels) keep their own choice, 1
-    runs_models = getattr(args, "command", None) in ("train", "generate", "evaluate")
+    # The commands that run models in this process choose by the load; the others keep their own choice: the book's
+    # kernels and the workers of `train book` run one thread each, whatever the process that starts them has
+    in_process = getattr(args, "model", None) != "book"
+    runs_models = getattr(args, "command", None) in ("train", "generate", "evaluate") and in_process
     load = cpu_load() if threads is None and runs_models else None
     if (threads_now := threads_for_load(load)) is not None:
         threads = threads_now

@@ -148,10 +148,10 @@ def test_a_busy_machine_gets_the_threads_its_other_programs_leave(monkeypatch, c
 
     from motionlab.cli import _settings
 
-    def settle(command: str) -> int:
+    def settle(command: str, **options) -> int:
         run = dict(threads=None, precision=None, force_precision=False, deterministic=None, compile=None)
         monkeypatch.delenv("MOTIONLAB_THREADS", raising=False)
-        _settings(Namespace(command=command, profile="smoke", **run))
+        _settings(Namespace(command=command, profile="smoke", **run, **options))
         return torch.get_num_threads()
 
     before = torch.get_num_threads()
@@ -162,6 +162,7 @@ def test_a_busy_machine_gets_the_threads_its_other_programs_leave(monkeypatch, c
         assert settle("train") == 1 and "load 3.9 on 2 cores): 1 torch thread" in capsys.readouterr().err
         torch.set_num_threads(2)
         assert settle("book") == 2 and not capsys.readouterr().err  # the chapters' kernels keep their one thread
+        assert settle("train", model="book") == 2 and not capsys.readouterr().err  # its workers: one thread each
         monkeypatch.setattr(os, "getloadavg", lambda: (0.1, 0.1, 0.1))
         assert settle("generate") == 2 and not capsys.readouterr().err  # idle: torch's own choice
         monkeypatch.setattr(os, "getloadavg", lambda: (3.9, 3.9, 3.9))
