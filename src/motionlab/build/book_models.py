@@ -84,18 +84,19 @@ BF16_SPEEDUP: dict[str, float] = {
 
 
 # The laptop models in bf16, measured: seconds per model of each kind, the largest over the cold builds recorded on the
-# slowest CPU measured in bf16, an AMD EPYC Zen 4 with AVX512-BF16 (two 1-thread workers; history/1193b88- and
-# 79de014-zen4-bf16-training.json under book/data/build_times). Wall seconds, starting the worker included: a
-# reader waits for those. The fp32 estimates over BF16_SPEEDUP said 1,000 s for chapter 05's decoder, which took
-# 610-659 s there: Zen 3, the fp32 reference, is also the slower CPU in fp32, which the speed-up (measured on one CPU
-# in both precisions) leaves out, and the plan line promised about 31 min of training where 21-23 passed.
+# slowest CPU measured in bf16, an AMD EPYC Zen 4 with AVX512-BF16 (two 1-thread workers; history/1193b88-, 79de014-
+# and 265de6d-zen4-bf16-training.json under book/data/build_times, three machines of the kind). Wall seconds, starting
+# the worker included: a reader waits for those. The fp32 estimates over BF16_SPEEDUP said 1,000 s for chapter 05's
+# decoder, which took 610-693 s there: Zen 3, the fp32 reference, is also the slower CPU in fp32, which the speed-up
+# (measured on one CPU in both precisions) leaves out, and the plan line promised about 31 min of training where
+# 21-23 passed.
 MEASURED_BF16_S: dict[str, dict[str, float]] = {
     "laptop": {
         "data": 50,
         "tokenizer": 166,
         "toy_flow": 31,
-        "evaluator": 97,
-        "discord": 660,
+        "evaluator": 102,
+        "discord": 693,
         "discord_short": 122,
         "t2m": 148,
     },
