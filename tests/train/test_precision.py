@@ -302,7 +302,7 @@ def test_bf16_plans_use_the_slowest_bf16_cpu_measured(monkeypatch):
     assert records
     for record in records:
         runs = json.loads(record.read_text())
-        slower = {name: run["seconds"] for name, run in runs.items() if run["seconds"] > jobs[name].estimate_s}
+        slower = {n: run["seconds"] for n, run in runs.items() if n in jobs and run["seconds"] > jobs[n].estimate_s}
         assert not slower, (record.name, slower)
     # profiles no build measured in bf16: the fp32 estimate over the speed-up measured on one CPU
     smoke = training_estimates("smoke", "bf16")
