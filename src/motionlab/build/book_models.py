@@ -125,8 +125,9 @@ def job_precision(name: str, run_precision: str) -> str:
 
 
 def training_estimates(profile: str, precision: str) -> dict[str, float]:
-    """Training CPU seconds per kind of model for ``profile`` trained in ``precision`` (``fp32`` | ``bf16``): the
-    slowest CPU measured in that precision where a build measured it, else the fp32 estimate over the speed-up."""
+    """Training seconds per kind of model for ``profile`` trained in ``precision`` (``fp32`` | ``bf16``): the
+    slowest CPU measured in that precision where a build measured it (wall seconds, :data:`MEASURED_BF16_S`), else
+    the fp32 CPU seconds of :data:`ESTIMATES_S`, over the speed-up in bf16."""
     profile = get_profile(profile)
     cost = ESTIMATES_S[profile]
     if precision == "fp32":
